@@ -1,0 +1,22 @@
+#pragma once
+// Shared pieces of the command line: how a subcommand registers the function it runs,
+// and the registration functions of every command group (one file per group).
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+
+namespace paintlab::app {
+
+// Registers `run` as what happens when `sub` is chosen. It runs after the whole command
+// line is parsed and logging is set up; its return value is the exit code.
+void on_run(CLI::App* sub, std::function<int()> run);
+
+// The function chosen by the command line, or nullptr.
+const std::function<int()>* chosen_command();
+
+// Prints one result line to stdout (not through the logger, so -q keeps it).
+void say(const std::string& line);
+
+void register_rig_commands(CLI::App& app);
+
+}  // namespace paintlab::app

@@ -1,0 +1,60 @@
+# Small helpers so every module is declared the same way (COLMAP's CMakeHelper style).
+
+add_library(paintlab_warnings INTERFACE)
+target_compile_options(paintlab_warnings INTERFACE -Wall -Wextra -Wpedantic)
+if(PAINTLAB_WERROR)
+  target_compile_options(paintlab_warnings INTERFACE -Werror)
+endif()
+if(PAINTLAB_SANITIZE)
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
+# paintlab_add_library(<module> SOURCES ... [DEPS ...] [PRIVATE_DEPS ...])
+# Creates target paintlab_<module> with public headers in <module>/include.
+# DEPS are the module's allowed public dependencies (DESIGN.md's graph).
+function(paintlab_add_library module)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  set(target paintlab_${module})
+  add_library(${target} STATIC ${ARG_SOURCES})
+  target_include_directories(${target}
+    PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
+    PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  target_link_libraries(${target} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS} paintlab_warnings)
+  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+# paintlab_add_test(<name> SOURCES ... [DEPS ...] [LABELS ...] [TIMEOUT s]
+#                   [RESOURCE_LOCK lock...] [RUN_SERIAL])
+# One GoogleTest executable; every TEST becomes one ctest test carrying LABELS.
+function(paintlab_add_test name)
+  cmake_parse_arguments(ARG "RUN_SERIAL" "TIMEOUT" "SOURCES;DEPS;LABELS;RESOURCE_LOCK" ${ARGN})
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 120)
+  endif()
+  if(NOT ARG_LABELS)
+    set(ARG_LABELS unit)
+  endif()
+  set(target test_${name})
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE ${ARG_DEPS} paintlab_test_support paintlab_warnings)
+  set(props LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} SKIP_RETURN_CODE 77)
+  if(ARG_RESOURCE_LOCK)
+    list(APPEND props RESOURCE_LOCK "${ARG_RESOURCE_LOCK}")
+  endif()
+  if(ARG_RUN_SERIAL)
+    list(APPEND props RUN_SERIAL TRUE)
+  endif()
+  gtest_discover_tests(${target}
+    TEST_PREFIX "${name}."
+    DISCOVERY_MODE PRE_TEST
+    DISCOVERY_TIMEOUT 30
+    PROPERTIES ${props})
+endfunction()
+
+# paintlab_add_bench(<name> SOURCES ... [DEPS ...]): a Google Benchmark program (not in ctest).
+function(paintlab_add_bench name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(bench_${name} ${ARG_SOURCES})
+  target_link_libraries(bench_${name} PRIVATE ${ARG_DEPS} benchmark::benchmark paintlab_warnings)
+endfunction()

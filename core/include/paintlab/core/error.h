@@ -1,0 +1,96 @@
+#pragma once
+// The one error hierarchy of paintlab. Library code throws these; only app/ catches,
+// prints the one-line message (which names file, line, key, device or register) and
+// maps the kind to an exit code (see exit_code()).
+#include <stdexcept>
+#include <string>
+
+namespace paintlab {
+
+enum class ErrorKind {
+  Usage,        // bad command line
+  Config,       // a TOML file (rig, paint) is wrong: names file, line and key
+  Data,         // an input file's content is wrong (JSON, EXR, MERL, session)
+  Io,           // a file could not be read or written
+  Device,       // a device failed (timeout, exception reply, lost frame)
+  Calibration,  // a calibration could not be computed or a check failed
+  Job,          // the job itself failed (fit did not converge, run stopped)
+};
+
+class Error : public std::runtime_error {
+ public:
+  Error(ErrorKind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
+  ErrorKind kind() const noexcept { return kind_; }
+
+ private:
+  ErrorKind kind_;
+};
+
+class UsageError : public Error {
+ public:
+  explicit UsageError(const std::string& message) : Error(ErrorKind::Usage, message) {}
+};
+
+// A configuration error. what() reads "FILE:LINE: key 'KEY': MESSAGE".
+class ConfigError : public Error {
+ public:
+  ConfigError(std::string file, int line, std::string key, std::string message);
+  const std::string& file() const noexcept { return file_; }
+  int line() const noexcept { return line_; }  // 0 when unknown
+  const std::string& key() const noexcept { return key_; }
+  const std::string& detail() const noexcept { return detail_; }
+
+ private:
+  std::string file_;
+  int line_;
+  std::string key_;
+  std::string detail_;
+};
+
+class DataError : public Error {
+ public:
+  explicit DataError(const std::string& message) : Error(ErrorKind::Data, message) {}
+};
+
+class IoError : public Error {
+ public:
+  // errno_value 0 when not from a system call; the message then includes strerror.
+  IoError(const std::string& path, const std::string& what, int errno_value = 0);
+  const std::string& path() const noexcept { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// A device failure. retryable() says whether trying the same operation again may help
+// (timeouts, lost frames, dropped connections) or not (exception replies, bad config).
+class DeviceError : public Error {
+ public:
+  DeviceError(std::string device, const std::string& message, bool retryable);
+  const std::string& device() const noexcept { return device_; }
+  bool retryable() const noexcept { return retryable_; }
+
+ private:
+  std::string device_;
+  bool retryable_;
+};
+
+class CalibrationError : public Error {
+ public:
+  explicit CalibrationError(const std::string& message) : Error(ErrorKind::Calibration, message) {}
+};
+
+class JobError : public Error {
+ public:
+  explicit JobError(const std::string& message) : Error(ErrorKind::Job, message) {}
+};
+
+// Exit codes of the command line (DESIGN.md "Contracts").
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailed = 1;    // the job failed: a check, a fit, a device fault
+inline constexpr int kExitBadInput = 2;  // bad usage or bad input
+
+int exit_code(const Error& e) noexcept;
+const char* to_string(ErrorKind kind) noexcept;
+
+}  // namespace paintlab

@@ -1,0 +1,42 @@
+#pragma once
+// Image files: OpenEXR (linear float, named channels) and 8/16-bit PNG/TIFF (raw camera
+// values). Writes are atomic (see atomic_file.h).
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "paintlab/core/image.h"
+
+namespace paintlab {
+
+// An EXR with named float channels of one size ("R","G","B","Y","var.R","valid"...).
+struct ExrImage {
+  int width = 0;
+  int height = 0;
+  std::vector<std::string> names;       // channel order as given/written
+  std::vector<ImageF> planes;           // one single-channel plane per name
+  std::map<std::string, std::string> attributes;  // string header attributes
+
+  const ImageF& plane(const std::string& name) const;  // DataError when absent
+  ImageF* find(const std::string& name);
+  const ImageF* find(const std::string& name) const;
+  void add(const std::string& name, ImageF plane);
+};
+
+// Writes channels as 32-bit float (or half when `half` is set), ZIP compressed.
+void write_exr(const std::filesystem::path& path, const ExrImage& image, bool half = false);
+ExrImage read_exr(const std::filesystem::path& path);
+
+// A camera-value image read from PNG/TIFF/PGM: 8 or 16 bit, 1 or 3 channels.
+struct RawImage {
+  Image<std::uint16_t> pixels;  // values as stored (8-bit files give 0..255)
+  int bit_depth = 16;           // 8 or 16 as stored in the file
+};
+RawImage read_raw_image(const std::filesystem::path& path);
+// Writes 8-bit when every value fits and bit_depth == 8, else 16-bit PNG.
+void write_png(const std::filesystem::path& path, const Image<std::uint16_t>& pixels, int bit_depth);
+void write_png8(const std::filesystem::path& path, const Image<std::uint8_t>& pixels);
+
+}  // namespace paintlab

@@ -1,0 +1,58 @@
+#include "paintlab/core/error.h"
+
+#include <cstring>
+
+namespace paintlab {
+namespace {
+std::string config_message(const std::string& file, int line, const std::string& key, const std::string& message) {
+  std::string where = file;
+  if (line > 0) where += ":" + std::to_string(line);
+  if (!key.empty()) return where + ": key '" + key + "': " + message;
+  return where + ": " + message;
+}
+std::string io_message(const std::string& path, const std::string& what, int errno_value) {
+  std::string m = path + ": " + what;
+  if (errno_value != 0) m += " (" + std::string(std::strerror(errno_value)) + ")";
+  return m;
+}
+}  // namespace
+
+ConfigError::ConfigError(std::string file, int line, std::string key, std::string message)
+    : Error(ErrorKind::Config, config_message(file, line, key, message)),
+      file_(std::move(file)), line_(line), key_(std::move(key)), detail_(std::move(message)) {}
+
+IoError::IoError(const std::string& path, const std::string& what, int errno_value)
+    : Error(ErrorKind::Io, io_message(path, what, errno_value)), path_(path) {}
+
+DeviceError::DeviceError(std::string device, const std::string& message, bool retryable)
+    : Error(ErrorKind::Device, device + ": " + message), device_(std::move(device)), retryable_(retryable) {}
+
+int exit_code(const Error& e) noexcept {
+  switch (e.kind()) {
+    case ErrorKind::Usage:
+    case ErrorKind::Config:
+    case ErrorKind::Data:
+    case ErrorKind::Io:
+      return kExitBadInput;
+    case ErrorKind::Device:
+    case ErrorKind::Calibration:
+    case ErrorKind::Job:
+      return kExitFailed;
+  }
+  return kExitFailed;
+}
+
+const char* to_string(ErrorKind kind) noexcept {
+  switch (kind) {
+    case ErrorKind::Usage: return "usage";
+    case ErrorKind::Config: return "config";
+    case ErrorKind::Data: return "data";
+    case ErrorKind::Io: return "io";
+    case ErrorKind::Device: return "device";
+    case ErrorKind::Calibration: return "calibration";
+    case ErrorKind::Job: return "job";
+  }
+  return "error";
+}
+
+}  // namespace paintlab

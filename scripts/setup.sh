@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Installs every Debian bookworm package paintlab needs to build, test and run.
+# Idempotent: when everything is present it prints one line and changes nothing.
+# Usage: bash scripts/setup.sh   (as root, or with sudo available)
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git
+  # libraries the code links
+  libeigen3-dev libopencv-dev libceres-dev libtbb-dev
+  libmodbus-dev libgpiod-dev libaravis-dev libusb-1.0-0-dev
+  libopenexr-dev libimath-dev libhdf5-dev
+  libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libexpected-dev
+  libssl-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev googletest libbenchmark-dev
+  # test peers: Aravis fake camera, pty pairs, USB descriptors, an independent Modbus stack,
+  # OpenCV's sample chessboard photos
+  aravis-tools-cli socat umockdev python3-pymodbus python3-serial opencv-doc
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q '^install ok installed$'; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "setup: installing ${#missing[@]} packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "setup: done"

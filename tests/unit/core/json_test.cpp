@@ -1,0 +1,70 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "paintlab/core/json.h"
+#include "test_util.h"
+
+using namespace paintlab;
+using ::testing::HasSubstr;
+
+TEST(Json, WriteReadRoundTrip) {
+  test::TempDir d;
+  Json j{{"K", matrix_to_json(Eigen::Matrix3d::Identity())}, {"rms_px", 0.21}};
+  write_json_file(d / "camera.json", j);
+  Json back = read_json_file(d / "camera.json");
+  EXPECT_EQ(back, j);
+  Eigen::MatrixXd K = matrix_from_json(back["K"], "K");
+  EXPECT_EQ(K.rows(), 3);
+  EXPECT_DOUBLE_EQ(K(2, 2), 1.0);
+}
+
+TEST(Json, ParseErrorNamesFile) {
+  test::TempDir d;
+  test::write_text(d / "bad.json", "{\"a\": 1,,}");
+  try {
+    read_json_file(d / "bad.json");
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("bad.json: not valid JSON at byte"));
+  }
+}
+
+TEST(Json, TypedGetNamesKey) {
+  Json j{{"rms_px", "x"}};
+  try {
+    json_get<double>(j, "rms_px", "camera.json");
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("camera.json: key 'rms_px' has the wrong type"));
+  }
+  EXPECT_THROW(json_get<double>(j, "K", "camera.json"), DataError);
+  EXPECT_DOUBLE_EQ(json_get_or<double>(j, "K", 2.0, "camera.json"), 2.0);
+}
+
+TEST(Json, JsonlAppendAndTornTail) {
+  test::TempDir d;
+  auto p = d / "journal.jsonl";
+  append_jsonl_line(p, Json{{"index", 0}});
+  append_jsonl_line(p, Json{{"index", 1}});
+  {
+    std::ofstream out(p, std::ios::app);
+    out << "{\"index\": 2, \"fi";  // a crash in the middle of an append
+  }
+  bool torn = false;
+  auto lines = read_jsonl_file(p, &torn);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(lines[1]["index"], 1);
+  EXPECT_TRUE(torn);
+}
+
+TEST(Json, JsonlCorruptMiddleLineIsAnError) {
+  test::TempDir d;
+  test::write_text(d / "j.jsonl", "{\"a\":1}\nnot json\n{\"a\":2}\n");
+  try {
+    read_jsonl_file(d / "j.jsonl");
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("j.jsonl:2: not valid JSON"));
+  }
+}

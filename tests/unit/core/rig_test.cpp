@@ -1,0 +1,99 @@
+#include <gtest/gtest.h>
+
+#include "paintlab/core/error.h"
+#include "paintlab/core/rig.h"
+#include "test_util.h"
+
+using namespace paintlab;
+using ::testing::HasSubstr;
+
+namespace {
+const char* kMinimal = R"(name = "r1"
+[devices.turntable]
+kind = "sim"
+[devices.light]
+kind = "sim"
+[devices.camera]
+kind = "sim"
+[geometry]
+sphere_radius_m = 0.04
+arm_radius_m = 0.6
+camera_distance_m = 1.2
+[plan]
+angle_start_deg = 0
+angle_stop_deg = 180
+angle_step_deg = 1
+exposures_ms = [0.25, 1, 4]
+)";
+
+std::string error_of(const std::string& text) {
+  try {
+    RigConfig::parse(ConfigTable::parse_string(text, "rig.toml"), "/lab/rig.toml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+}  // namespace
+
+TEST(Rig, ExamplesAreValid) {
+  for (const char* name : {"rig-sim.toml", "rig-lab.toml"}) {
+    RigConfig r = RigConfig::load(test::source_dir() / "examples" / name);
+    EXPECT_EQ(r.plan.angles_deg().size(), 181u) << name;
+    ASSERT_EQ(r.plan.exposures_s.size(), 16u) << name;
+    EXPECT_NEAR(r.plan.exposures_s.front(), 0.25e-3, 1e-12);
+    EXPECT_NEAR(r.plan.exposures_s.back(), 0.328, 1e-12);
+  }
+  EXPECT_TRUE(RigConfig::load(test::source_dir() / "examples/rig-sim.toml").all_simulated());
+  RigConfig lab = RigConfig::load(test::source_dir() / "examples/rig-lab.toml");
+  EXPECT_EQ(lab.turntable.kind, "modbus-tcp");
+  EXPECT_EQ(lab.light.kind, "gpiod");
+  EXPECT_EQ(lab.camera.kind, "aravis");
+  EXPECT_EQ(lab.calibration_dir, test::source_dir() / "examples/calib");
+}
+
+TEST(Rig, MinimalParses) {
+  RigConfig r = RigConfig::parse(ConfigTable::parse_string(kMinimal, "rig.toml"), "/lab/rig.toml");
+  EXPECT_EQ(r.calibration_dir, std::filesystem::path("/lab/calib"));
+  EXPECT_EQ(r.plan.exposures_s.size(), 3u);
+  EXPECT_DOUBLE_EQ(r.geometry.arm_height_m, 0.0);
+}
+
+TEST(Rig, RejectsUnknownKey) {
+  std::string t = std::string(kMinimal) + "colour = 3\n";
+  EXPECT_THAT(error_of(t), HasSubstr("key 'plan.colour': unknown key in [plan]"));
+}
+
+TEST(Rig, RejectsBadDeviceKind) {
+  std::string t = kMinimal;
+  t.replace(t.find("kind = \"sim\"\n[devices.light]"), 12, "kind = \"usb\"");
+  EXPECT_THAT(error_of(t), HasSubstr("rig.toml:3: key 'devices.turntable.kind': \"usb\" is not one of"));
+}
+
+TEST(Rig, RejectsOutOfRangeAndWrongType) {
+  std::string t = kMinimal;
+  t.replace(t.find("0.04"), 4, "-0.04");
+  EXPECT_THAT(error_of(t), HasSubstr("rig.toml:9: key 'geometry.sphere_radius_m': must be in (0.001, 1)"));
+  t = kMinimal;
+  t.replace(t.find("angle_step_deg = 1"), 18, "angle_step_deg = \"1\"");
+  EXPECT_THAT(error_of(t), HasSubstr("key 'plan.angle_step_deg': expected a number, got a string"));
+}
+
+TEST(Rig, RejectsNoAnglesAndBadBracket) {
+  std::string t = kMinimal;
+  t.replace(t.find("angle_stop_deg = 180"), 20, "angle_stop_deg = -5");
+  EXPECT_THAT(error_of(t), HasSubstr("key 'plan.angle_stop_deg': must not be smaller than angle_start_deg"));
+  t = kMinimal;
+  t.replace(t.find("[0.25, 1, 4]"), 12, "[1, 0.25]");
+  EXPECT_THAT(error_of(t), HasSubstr("strictly ascending"));
+  t = kMinimal;
+  t.replace(t.find("exposures_ms = [0.25, 1, 4]"), 27, "");
+  EXPECT_THAT(error_of(t), HasSubstr("exactly one of the two"));
+}
+
+TEST(Rig, GeometricBracket) {
+  auto b = geometric_bracket(0.25, 328, 16);
+  ASSERT_EQ(b.size(), 16u);
+  for (size_t i = 1; i < b.size(); ++i) EXPECT_NEAR(b[i] / b[i - 1], b[1] / b[0], 1e-9);
+  EXPECT_DOUBLE_EQ(b.back(), 328);
+}
