@@ -14,6 +14,10 @@ void on_run(CLI::App* sub, std::function<int()> run);
 // The function chosen by the command line, or nullptr.
 const std::function<int()>* chosen_command();
 
+// The command group `name` (e.g. "sim", "calibrate"), created on first use, so several
+// files can add subcommands to one group.
+CLI::App* subcommand_group(CLI::App& app, const std::string& name, const std::string& description);
+
 // Prints one result line to stdout (not through the logger, so -q keeps it).
 void say(const std::string& line);
 
