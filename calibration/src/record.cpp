@@ -13,7 +13,7 @@ Provenance Provenance::make(const std::string& kind, const std::vector<std::file
   Provenance p;
   p.kind = kind;
   p.date = utc_timestamp();
-  p.software_version = software_version();
+  p.software_version = paintlab::software_version();
   for (const auto& f : files) p.inputs.push_back({f.string(), sha256_file(f)});
   p.devices = std::move(devices);
   return p;
