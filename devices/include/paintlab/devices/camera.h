@@ -47,6 +47,9 @@ class Camera {
   virtual Result<double> set_gain_db(double gain_db) = 0;
   virtual Result<void> set_pixel_format(PixelFormat format) = 0;
   virtual Result<PixelFormat> pixel_format() = 0;
+  // Sensor readout time of one frame after its exposure (s), from the device or the rig
+  // config: the physical minimum a bracket needs is sum(exposure) + n * readout.
+  virtual double readout_s() const = 0;
   // Triggers one frame (software trigger) and waits up to timeout_s for it. Incomplete
   // or damaged frames are never returned as good data.
   virtual Result<Frame> capture(double timeout_s) = 0;

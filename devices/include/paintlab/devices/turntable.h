@@ -36,6 +36,10 @@ class Turntable {
   virtual Result<void> stop() = 0;
   // Clears a controller alarm.
   virtual Result<void> reset_alarm() = 0;
+  // The time the configured motion profile (speed, acceleration) needs from one angle to
+  // another, without polling or settling: the physical minimum the session's timing
+  // summary compares against.
+  virtual double move_time_s(double from_deg, double to_deg) const = 0;
 };
 
 }  // namespace paintlab::dev
