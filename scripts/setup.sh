@@ -17,8 +17,10 @@ packages=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   # test peers: Aravis fake camera, pty pairs, USB descriptors, an independent Modbus stack,
   # OpenCV's sample chessboard photos
-  # (arv-fake-gv-camera-0.8 is in aravis-tools, arv-tool-0.8 in aravis-tools-cli)
-  aravis-tools aravis-tools-cli socat umockdev python3-pymodbus python3-serial opencv-doc
+  # (arv-fake-gv-camera-0.8 is in aravis-tools, arv-tool-0.8 in aravis-tools-cli; pymodbus.server
+  # imports serial_asyncio)
+  aravis-tools aravis-tools-cli socat umockdev python3-pymodbus python3-serial python3-serial-asyncio
+  opencv-doc
 )
 
 missing=()
