@@ -1,0 +1,499 @@
+#include "paintlab/brdf/paint.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <set>
+
+#include "paintlab/brdf/merl.h"
+#include "paintlab/core/error.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::brdf {
+
+namespace {
+
+const char* const kCookTorrance = "cook-torrance";
+const char* const kAxf = "axf-carpaint";
+const char* const kPearl = "layered-pearlescent";
+const char* const kMerl = "merl";
+
+// The JSON twin of ConfigTable: the same reading functions, so one template parses both
+// formats with the same rules. Errors: "WHERE: key 'PATH': RULE".
+class JsonTable {
+ public:
+  JsonTable(const Json* j, std::string where, std::string prefix, bool strict,
+            std::shared_ptr<std::set<std::string>> used = std::make_shared<std::set<std::string>>())
+      : j_(j), where_(std::move(where)), prefix_(std::move(prefix)), strict_(strict), used_(std::move(used)) {}
+
+  std::string path(std::string_view key) const {
+    return prefix_.empty() ? std::string(key) : prefix_ + "." + std::string(key);
+  }
+  [[noreturn]] void fail(std::string_view key, const std::string& message) const {
+    throw DataError(where_ + ": key '" + path(key) + "': " + message);
+  }
+  bool has(std::string_view key) const { return j_->contains(key); }
+
+  double number(std::string_view key, Bounds b) const { return checked(key, require(key), b); }
+  double number(std::string_view key, double fallback, Bounds b) const {
+    const Json* n = get(key);
+    return n ? checked(key, *n, b) : fallback;
+  }
+  std::int64_t integer(std::string_view key, Bounds b) const {
+    const Json& n = require(key);
+    if (!n.is_number_integer()) fail(key, std::string("expected an integer, got ") + type_name(n));
+    const auto v = n.get<std::int64_t>();
+    if (!b.contains(static_cast<double>(v))) fail(key, b.describe() + " (got " + std::to_string(v) + ")");
+    return v;
+  }
+  std::int64_t integer(std::string_view key, std::int64_t fallback, Bounds b) const {
+    return has(key) ? integer(key, b) : fallback;
+  }
+  std::string string(std::string_view key) const {
+    const Json& n = require(key);
+    if (!n.is_string()) fail(key, std::string("expected a string, got ") + type_name(n));
+    return n.get<std::string>();
+  }
+  std::string string(std::string_view key, std::string fallback) const { return has(key) ? string(key) : fallback; }
+  std::string choice(std::string_view key, const std::vector<std::string>& allowed) const {
+    std::string v = string(key);
+    if (std::find(allowed.begin(), allowed.end(), v) != allowed.end()) return v;
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "\"" : ", \"") + a + "\"";
+    fail(key, "\"" + v + "\" is not one of " + list);
+  }
+  std::vector<double> numbers(std::string_view key, std::size_t min_count, std::size_t max_count, Bounds b) const {
+    const Json& n = require(key);
+    if (!n.is_array()) fail(key, std::string("expected an array of numbers, got ") + type_name(n));
+    if (n.size() < min_count || n.size() > max_count) {
+      std::string want = min_count == max_count ? std::to_string(min_count)
+                                                : std::to_string(min_count) + ".." + std::to_string(max_count);
+      fail(key, "expected " + want + " values, got " + std::to_string(n.size()));
+    }
+    std::vector<double> out;
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      if (!n[i].is_number())
+        fail(key, "element " + std::to_string(i) + ": expected a number, got " + type_name(n[i]));
+      const double v = n[i].get<double>();
+      if (!b.contains(v)) fail(key, "element " + std::to_string(i) + " " + b.describe() + " (got " + fmt::format("{:g}", v) + ")");
+      out.push_back(v);
+    }
+    return out;
+  }
+  std::array<double, 3> triple(std::string_view key, Bounds b) const {
+    auto v = numbers(key, 3, 3, b);
+    return {v[0], v[1], v[2]};
+  }
+  std::vector<JsonTable> tables(std::string_view key, std::size_t min_count, std::size_t max_count) const {
+    const Json& n = require(key);
+    if (!n.is_array()) fail(key, std::string("expected an array of objects, got ") + type_name(n));
+    if (n.size() < min_count || n.size() > max_count)
+      fail(key, "expected " + std::to_string(min_count) + ".." + std::to_string(max_count) + " entries, got " +
+                    std::to_string(n.size()));
+    std::vector<JsonTable> out;
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const std::string p = path(key) + "[" + std::to_string(i) + "]";
+      if (!n[i].is_object()) throw DataError(where_ + ": key '" + p + "': expected an object, got " + type_name(n[i]));
+      out.emplace_back(&n[i], where_, p, true, used_);
+    }
+    return out;
+  }
+  std::optional<JsonTable> maybe_table(std::string_view key) const {
+    const Json* n = get(key);
+    if (!n) return std::nullopt;
+    if (!n->is_object()) fail(key, std::string("expected an object, got ") + type_name(*n));
+    return JsonTable(n, where_, path(key), true, used_);
+  }
+  void finish() const {
+    if (!strict_) return;
+    for (auto it = j_->begin(); it != j_->end(); ++it)
+      if (!used_->count(path(it.key())))
+        fail(it.key(), "unknown key" + (prefix_.empty() ? std::string(" at the top level") : " in '" + prefix_ + "'"));
+  }
+
+ private:
+  static const char* type_name(const Json& n) {
+    switch (n.type()) {
+      case Json::value_t::object: return "an object";
+      case Json::value_t::array: return "an array";
+      case Json::value_t::string: return "a string";
+      case Json::value_t::boolean: return "a boolean";
+      case Json::value_t::null: return "null";
+      case Json::value_t::number_integer:
+      case Json::value_t::number_unsigned: return "an integer";
+      case Json::value_t::number_float: return "a number";
+      default: return "something else";
+    }
+  }
+  const Json* get(std::string_view key) const {
+    auto it = j_->find(key);
+    if (it == j_->end()) return nullptr;
+    used_->insert(path(key));
+    return &*it;
+  }
+  const Json& require(std::string_view key) const {
+    const Json* n = get(key);
+    if (!n) fail(key, "required key is missing");
+    return *n;
+  }
+  double checked(std::string_view key, const Json& n, Bounds b) const {
+    if (!n.is_number()) fail(key, std::string("expected a number, got ") + type_name(n));
+    const double v = n.get<double>();
+    if (!b.contains(v)) fail(key, b.describe() + " (got " + fmt::format("{:g}", v) + ")");
+    return v;
+  }
+
+  const Json* j_;
+  std::string where_;
+  std::string prefix_;
+  bool strict_;
+  std::shared_ptr<std::set<std::string>> used_;
+};
+
+Rgb rgb_of(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+
+bool valid_name(const std::string& s) {
+  if (s.empty()) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
+  });
+}
+
+const Bounds kUnitOpen = Bounds::open(0.0, 1.0);
+const Bounds kIor = Bounds::closed(1.0, 3.0);
+
+template <class Table>
+CookTorranceParams parse_cook_torrance(const Table& t) {
+  CookTorranceParams p;
+  p.kd = rgb_of(t.triple("kd", Bounds::non_negative()));
+  for (const Table& l : t.tables("lobes", 1, 3)) {
+    CtLobe lobe;
+    lobe.ks = rgb_of(l.triple("ks", Bounds::non_negative()));
+    lobe.m = l.number("m", kUnitOpen);
+    lobe.r = l.number("r", kUnitOpen);
+    l.finish();
+    p.lobes.push_back(lobe);
+  }
+  return p;
+}
+
+template <class Table>
+AxfCarPaintParams parse_axf(const Table& t) {
+  AxfCarPaintParams p;
+  p.ior = t.number("ior", kIor);
+  p.diffuse = t.number("diffuse", Bounds::non_negative());
+  for (const Table& l : t.tables("lobes", 1, 3)) {
+    AxfLobe lobe;
+    lobe.coefficient = l.number("coefficient", Bounds::non_negative());
+    lobe.spread = l.number("spread", kUnitOpen);
+    lobe.f0 = l.number("f0", kUnitOpen);
+    l.finish();
+    p.lobes.push_back(lobe);
+  }
+  if (auto c = t.maybe_table("chi")) {
+    ColourTable& chi = p.chi;
+    chi.theta_h_samples = static_cast<int>(c->integer("theta_h_samples", Bounds::closed(1, 1024)));
+    chi.theta_i_samples = static_cast<int>(c->integer("theta_i_samples", Bounds::closed(1, 1024)));
+    chi.scale = c->number("scale", 1.0, Bounds::positive());
+    const std::size_t n = static_cast<std::size_t>(chi.theta_h_samples) * static_cast<std::size_t>(chi.theta_i_samples);
+    const std::vector<double> v = c->numbers("rgb", 3 * n, 3 * n, Bounds::non_negative());
+    chi.rgb.resize(n);
+    for (std::size_t i = 0; i < n; ++i) chi.rgb[i] = Rgb(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
+    c->finish();
+  }
+  return p;
+}
+
+template <class Table>
+PearlescentParams parse_pearl(const Table& t) {
+  PearlescentParams p;
+  p.substrate = rgb_of(t.triple("substrate", Bounds::closed(0.0, 1.0)));
+  p.ior = t.number("ior", kIor);
+  p.gloss_roughness = t.number("gloss_roughness", kUnitOpen);
+  if (t.has("absorption")) p.absorption = rgb_of(t.triple("absorption", Bounds::non_negative()));
+  const Table g = *t.maybe_table("pigment");  // required: checked by the caller
+  p.coverage = g.number("coverage", Bounds::closed(0.0, 20.0));
+  p.opacity = g.number("opacity", Bounds::closed(0.0, 1.0));
+  p.flake_roughness = g.number("roughness", kUnitOpen);
+  p.film_ior = g.number("film_ior", Bounds{1.0, 4.0, true, false});
+  p.film_thickness_nm = g.number("film_thickness_nm", Bounds{0.0, 2000.0, true, false});
+  p.core_ior = g.number("core_ior", Bounds{1.0, 4.0, true, false});
+  g.finish();
+  return p;
+}
+
+template <class Table>
+PaintSpec parse_generic(const Table& t, const fs::path& base_dir, bool name_required) {
+  PaintSpec s;
+  s.name = name_required ? t.string("name") : t.string("name", "unnamed");
+  if (!valid_name(s.name))
+    t.fail("name", "\"" + s.name + "\" is not a valid paint name (use only a-z, 0-9, '.', '_', '-')");
+  const std::string model = t.choice("model", paint_models());
+  std::vector<double> lobe_roughness;
+  if (model == kCookTorrance) {
+    auto p = parse_cook_torrance(t);
+    for (const auto& l : p.lobes) lobe_roughness.push_back(l.m);
+    s.params = std::move(p);
+  } else if (model == kAxf) {
+    auto p = parse_axf(t);
+    for (const auto& l : p.lobes) lobe_roughness.push_back(l.spread);
+    s.params = std::move(p);
+  } else if (model == kPearl) {
+    if (!t.has("pigment")) t.fail("pigment", "required table is missing (the flake pigment of the layered model)");
+    s.params = parse_pearl(t);
+  } else {
+    MerlParams p;
+    p.table = t.string("table");
+    p.resolved = fs::path(p.table).is_absolute() ? fs::path(p.table) : base_dir / p.table;
+    std::error_code ec;
+    if (!fs::is_regular_file(p.resolved, ec)) t.fail("table", "no such file: " + p.resolved.string());
+    const auto size = fs::file_size(p.resolved, ec);
+    if (ec || size != kMerlFileBytes)
+      t.fail("table", fmt::format("{}: expected {} bytes, got {} (not a MERL table)", p.resolved.string(),
+                                  kMerlFileBytes, ec ? 0 : size));
+    s.params = std::move(p);
+  }
+
+  if (t.has("flakes")) {
+    if (model == kMerl) t.fail("flakes", "sparkle needs an analytic model; not allowed with model \"merl\"");
+    const Table f = *t.maybe_table("flakes");
+    FlakeSpec fl;
+    fl.density = f.number("density", Bounds::positive());
+    fl.roughness = f.number("roughness", kUnitOpen);
+    fl.lifetime_deg = f.number("lifetime_deg", fl.lifetime_deg, Bounds{0.0, 45.0, true, false});
+    if (model == kPearl) {
+      if (f.has("lobes"))
+        f.fail("lobes", "layered-pearlescent has no lobes; its flakes carry the glitter term");
+    } else if (f.has("lobes")) {
+      const double n = static_cast<double>(lobe_roughness.size());
+      const auto v = f.numbers("lobes", 1, lobe_roughness.size(), Bounds::closed(1.0, n));
+      std::set<int> seen;
+      for (double x : v) {
+        if (x != std::floor(x)) f.fail("lobes", fmt::format("lobe numbers are whole numbers (got {:g})", x));
+        const int idx = static_cast<int>(x) - 1;
+        if (!seen.insert(idx).second) f.fail("lobes", fmt::format("lobe {} is listed twice", idx + 1));
+        fl.lobes.push_back(idx);
+      }
+    } else {
+      fl.lobes = default_flake_lobes(lobe_roughness);
+    }
+    f.finish();
+    s.flakes = fl;
+  }
+  t.finish();
+  return s;
+}
+
+// A TOML/JSON-safe number that reads back to the same double, with a decimal point or
+// exponent so TOML sees a float.
+std::string num(double v) {
+  std::string s = fmt::format("{}", v);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+std::string rgb_str(const Rgb& c) { return "[" + num(c[0]) + ", " + num(c[1]) + ", " + num(c[2]) + "]"; }
+std::string toml_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      out += fmt::format("\\u{:04X}", static_cast<unsigned>(static_cast<unsigned char>(c)));
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+Json rgb_json(const Rgb& c) { return Json::array({c[0], c[1], c[2]}); }
+
+}  // namespace
+
+const std::vector<std::string>& paint_models() {
+  static const std::vector<std::string> m{kCookTorrance, kAxf, kPearl, kMerl};
+  return m;
+}
+
+std::string PaintSpec::model() const {
+  return std::visit(
+      [](const auto& p) -> std::string {
+        using P = std::decay_t<decltype(p)>;
+        if constexpr (std::is_same_v<P, CookTorranceParams>) return kCookTorrance;
+        else if constexpr (std::is_same_v<P, AxfCarPaintParams>) return kAxf;
+        else if constexpr (std::is_same_v<P, PearlescentParams>) return kPearl;
+        else return kMerl;
+      },
+      params);
+}
+
+std::vector<int> default_flake_lobes(const std::vector<double>& lobe_roughness) {
+  std::vector<int> out;
+  if (lobe_roughness.size() <= 1) {
+    if (!lobe_roughness.empty()) out.push_back(0);
+    return out;
+  }
+  const auto narrowest = std::min_element(lobe_roughness.begin(), lobe_roughness.end()) - lobe_roughness.begin();
+  for (int i = 0; i < static_cast<int>(lobe_roughness.size()); ++i)
+    if (i != narrowest) out.push_back(i);
+  return out;
+}
+
+PaintSpec parse_paint(const ConfigTable& t) {
+  PaintSpec s = parse_generic(t, fs::path(t.file()).parent_path(), true);
+  s.source = t.file();
+  return s;
+}
+
+PaintSpec load_paint_file(const fs::path& path) { return parse_paint(ConfigTable::parse_file(path)); }
+
+PaintSpec paint_from_json(const Json& j, const std::string& where, const fs::path& base_dir) {
+  if (!j.is_object()) throw DataError(where + ": expected a paint object, got " + std::string(j.type_name()));
+  JsonTable t(&j, where, "", false);
+  return parse_generic(t, base_dir, false);
+}
+
+void check_paint(const PaintSpec& spec) {
+  Json j = to_json(spec);
+  if (const MerlParams* m = spec.merl()) j["table"] = m->resolved.empty() ? m->table : m->resolved.string();
+  JsonTable t(&j, "paint '" + spec.name + "'", "", true);
+  parse_generic(t, {}, true);
+}
+
+std::string to_toml(const PaintSpec& spec) {
+  std::string s;
+  s += "name = " + toml_string(spec.name) + "\n";
+  s += "model = " + toml_string(spec.model()) + "\n";
+  std::string tail;
+  if (const auto* p = spec.cook_torrance()) {
+    s += "kd = " + rgb_str(p->kd) + "\n";
+    for (const auto& l : p->lobes)
+      tail += "\n[[lobes]]\nks = " + rgb_str(l.ks) + "\nm = " + num(l.m) + "\nr = " + num(l.r) + "\n";
+  } else if (const auto* p = spec.axf_carpaint()) {
+    s += "ior = " + num(p->ior) + "\ndiffuse = " + num(p->diffuse) + "\n";
+    for (const auto& l : p->lobes)
+      tail += "\n[[lobes]]\ncoefficient = " + num(l.coefficient) + "\nspread = " + num(l.spread) +
+              "\nf0 = " + num(l.f0) + "\n";
+    tail += fmt::format("\n[chi]\ntheta_h_samples = {}\ntheta_i_samples = {}\nscale = {}\nrgb = [\n",
+                        p->chi.theta_h_samples, p->chi.theta_i_samples, num(p->chi.scale));
+    for (const Rgb& c : p->chi.rgb) tail += "  " + num(c[0]) + ", " + num(c[1]) + ", " + num(c[2]) + ",\n";
+    tail += "]\n";
+  } else if (const auto* p = spec.pearlescent()) {
+    s += "substrate = " + rgb_str(p->substrate) + "\nior = " + num(p->ior) +
+         "\ngloss_roughness = " + num(p->gloss_roughness) + "\nabsorption = " + rgb_str(p->absorption) + "\n";
+    tail += "\n[pigment]\ncoverage = " + num(p->coverage) + "\nopacity = " + num(p->opacity) +
+            "\nroughness = " + num(p->flake_roughness) + "\nfilm_ior = " + num(p->film_ior) +
+            "\nfilm_thickness_nm = " + num(p->film_thickness_nm) + "\ncore_ior = " + num(p->core_ior) + "\n";
+  } else if (const auto* p = spec.merl()) {
+    s += "table = " + toml_string(p->table) + "\n";
+  }
+  if (spec.flakes) {
+    const FlakeSpec& f = *spec.flakes;
+    tail += "\n[flakes]\ndensity = " + num(f.density) + "\nroughness = " + num(f.roughness) +
+            "\nlifetime_deg = " + num(f.lifetime_deg) + "\n";
+    if (!f.lobes.empty()) {
+      tail += "lobes = [";
+      for (std::size_t i = 0; i < f.lobes.size(); ++i) tail += (i ? ", " : "") + std::to_string(f.lobes[i] + 1);
+      tail += "]\n";
+    }
+  }
+  return s + tail;
+}
+
+Json to_json(const PaintSpec& spec) {
+  Json j;
+  j["name"] = spec.name;
+  j["model"] = spec.model();
+  if (const auto* p = spec.cook_torrance()) {
+    j["kd"] = rgb_json(p->kd);
+    Json lobes = Json::array();
+    for (const auto& l : p->lobes) lobes.push_back({{"ks", rgb_json(l.ks)}, {"m", l.m}, {"r", l.r}});
+    j["lobes"] = lobes;
+  } else if (const auto* p = spec.axf_carpaint()) {
+    j["ior"] = p->ior;
+    j["diffuse"] = p->diffuse;
+    Json lobes = Json::array();
+    for (const auto& l : p->lobes) lobes.push_back({{"coefficient", l.coefficient}, {"spread", l.spread}, {"f0", l.f0}});
+    j["lobes"] = lobes;
+    Json rgb = Json::array();
+    for (const Rgb& c : p->chi.rgb)
+      for (int k = 0; k < 3; ++k) rgb.push_back(c[k]);
+    j["chi"] = {{"theta_h_samples", p->chi.theta_h_samples},
+                {"theta_i_samples", p->chi.theta_i_samples},
+                {"scale", p->chi.scale},
+                {"rgb", rgb}};
+  } else if (const auto* p = spec.pearlescent()) {
+    j["substrate"] = rgb_json(p->substrate);
+    j["ior"] = p->ior;
+    j["gloss_roughness"] = p->gloss_roughness;
+    j["absorption"] = rgb_json(p->absorption);
+    j["pigment"] = {{"coverage", p->coverage},         {"opacity", p->opacity},
+                    {"roughness", p->flake_roughness}, {"film_ior", p->film_ior},
+                    {"film_thickness_nm", p->film_thickness_nm}, {"core_ior", p->core_ior}};
+  } else if (const auto* p = spec.merl()) {
+    j["table"] = p->table;
+  }
+  if (spec.flakes) {
+    const FlakeSpec& f = *spec.flakes;
+    Json fl = {{"density", f.density}, {"roughness", f.roughness}, {"lifetime_deg", f.lifetime_deg}};
+    if (!f.lobes.empty()) {
+      Json lobes = Json::array();
+      for (int l : f.lobes) lobes.push_back(l + 1);
+      fl["lobes"] = lobes;
+    }
+    j["flakes"] = fl;
+  }
+  return j;
+}
+
+std::unique_ptr<Brdf> make_brdf(const PaintSpec& spec) {
+  if (const auto* p = spec.cook_torrance()) return std::make_unique<CookTorrance>(p->kd, p->lobes);
+  if (const auto* p = spec.axf_carpaint()) return std::make_unique<AxfCarPaint>(*p);
+  if (const auto* p = spec.pearlescent()) return std::make_unique<LayeredPearlescent>(*p);
+  const MerlParams& m = *spec.merl();
+  return std::make_unique<MerlBrdf>(std::make_shared<const MerlTable>(read_merl(m.resolved)));
+}
+
+std::string describe_paint(const PaintSpec& spec) {
+  std::string s = fmt::format("paint '{}', model {}\n", spec.name, spec.model());
+  auto rgb = [](const Rgb& c) { return fmt::format("[{:.4g}, {:.4g}, {:.4g}]", c[0], c[1], c[2]); };
+  if (const auto* p = spec.cook_torrance()) {
+    s += fmt::format("  kd (diffuse albedo)   {}\n", rgb(p->kd));
+    for (std::size_t i = 0; i < p->lobes.size(); ++i) {
+      const auto& l = p->lobes[i];
+      s += fmt::format("  lobe {}                ks {}  m {:.4g}  r {:.4g}\n", i + 1, rgb(l.ks), l.m, l.r);
+    }
+  } else if (const auto* p = spec.axf_carpaint()) {
+    s += fmt::format("  clear coat ior        {:.4g}\n  diffuse               {:.4g}\n", p->ior, p->diffuse);
+    for (std::size_t i = 0; i < p->lobes.size(); ++i) {
+      const auto& l = p->lobes[i];
+      s += fmt::format("  lobe {}                coefficient {:.4g}  spread {:.4g}  F0 {:.4g}\n", i + 1,
+                       l.coefficient, l.spread, l.f0);
+    }
+    s += fmt::format("  colour table chi      {} theta_h x {} theta_i samples, scale {:.4g}\n",
+                     p->chi.theta_h_samples, p->chi.theta_i_samples, p->chi.scale);
+  } else if (const auto* p = spec.pearlescent()) {
+    s += fmt::format("  substrate albedo      {}\n  binder ior            {:.4g}\n  gloss roughness       {:.4g}\n"
+                     "  absorption (kappa h)  {}\n",
+                     rgb(p->substrate), p->ior, p->gloss_roughness, rgb(p->absorption));
+    s += fmt::format("  pigment               coverage {:.4g}, opacity {:.4g}, roughness {:.4g}\n", p->coverage,
+                     p->opacity, p->flake_roughness);
+    s += fmt::format("  interference coating  {:.4g} nm of index {:.4g} on a core of index {:.4g}\n",
+                     p->film_thickness_nm, p->film_ior, p->core_ior);
+  } else if (const auto* p = spec.merl()) {
+    s += fmt::format("  table                 {}\n", p->resolved.string());
+  }
+  if (spec.flakes) {
+    const FlakeSpec& f = *spec.flakes;
+    std::string carried;
+    for (int l : f.lobes) carried += (carried.empty() ? "" : ", ") + std::to_string(l + 1);
+    s += fmt::format("  flakes (sparkle)      density {:.4g}, roughness {:.4g}, lifetime {:.4g} deg, carry {}\n",
+                     f.density, f.roughness, f.lifetime_deg,
+                     carried.empty() ? std::string("the glitter term") : "lobe(s) " + carried);
+  }
+  return s;
+}
+
+}  // namespace paintlab::brdf
