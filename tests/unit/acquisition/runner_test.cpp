@@ -1,0 +1,424 @@
+// The session runner's promises, with small in-memory devices whose faults the tests
+// switch: every position journaled once with a valid checksum; interruption, device
+// faults and crashes leave a consistent journal; resume completes the same session.
+// (The same runner over the real drivers and simulated peers is tested in e2e.)
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <fmt/format.h>
+#include <fstream>
+#include <functional>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "paintlab/acquisition/runner.h"
+#include "paintlab/acquisition/session.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/core/hash.h"
+#include "test_util.h"
+
+using namespace paintlab;
+using namespace paintlab::acq;
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+namespace {
+
+class TestClock final : public Clock {
+ public:
+  double now_s() const override { return t_; }
+  void sleep_s(double s) override {
+    if (s > 0) t_ += s;
+  }
+
+ private:
+  double t_ = 1000.0;
+};
+
+// A table that moves at a constant speed on the test clock.
+class TestTable final : public dev::Turntable {
+ public:
+  explicit TestTable(Clock& c) : clock_(c) {}
+  std::string id() const override { return "turntable test"; }
+  Result<void> home() override { return move_to(0.0); }
+  Result<void> move_to(double a) override {
+    if (fail_moves > 0) {
+      --fail_moves;
+      return device_failure(id(), "timeout (register 0x005C)", true);
+    }
+    from_ = position();
+    target_ = a;
+    t0_ = clock_.now_s();
+    return {};
+  }
+  Result<double> angle_deg() override { return position(); }
+  Result<dev::TurntableStatus> status() override {
+    dev::TurntableStatus s;
+    s.ready = true;
+    s.moving = position() != target_;
+    s.in_position = !s.moving;
+    s.homed = true;
+    s.angle_deg = position();
+    return s;
+  }
+  Result<double> wait_settled(double) override { return position(); }
+  Result<void> stop() override {
+    target_ = position();
+    from_ = target_;
+    ++stops;
+    return {};
+  }
+  Result<void> reset_alarm() override { return {}; }
+  double move_time_s(double a, double b) const override { return std::abs(b - a) / speed; }
+
+  int fail_moves = 0;
+  int stops = 0;
+  double speed = 30.0;
+
+ private:
+  double position() const {
+    double d = target_ - from_;
+    double moved = speed * (clock_.now_s() - t0_);
+    if (moved >= std::abs(d)) return target_;
+    return from_ + std::copysign(moved, d);
+  }
+  Clock& clock_;
+  double from_ = 0, target_ = 0, t0_ = 0;
+};
+
+class TestLight final : public dev::Light {
+ public:
+  std::string id() const override { return "light test"; }
+  Result<void> on(double) override {
+    if (!stuck) state = true;
+    ++switch_ons;
+    return {};
+  }
+  Result<void> off() override {
+    if (!stuck) state = false;
+    return {};
+  }
+  Result<bool> is_on() override { return state; }
+  bool has_level() const override { return false; }
+  bool state = false;
+  bool stuck = false;
+  int switch_ons = 0;
+};
+
+class TestCamera final : public dev::Camera {
+ public:
+  TestCamera(Clock& c, TestLight& l) : clock_(c), light_(l) {}
+  std::string id() const override { return "camera test"; }
+  std::string serial() const override { return "TEST-1"; }
+  Result<dev::ExposureRange> exposure_range() override { return dev::ExposureRange{1e-5, 1.0}; }
+  Result<double> set_exposure(double s) override {
+    exposure_ = std::round(s / 1e-5) * 1e-5;  // applied in 10 us increments
+    return exposure_;
+  }
+  Result<double> set_gain_db(double g) override { return g; }
+  Result<void> set_pixel_format(dev::PixelFormat) override { return {}; }
+  Result<dev::PixelFormat> pixel_format() override { return dev::PixelFormat::Mono16; }
+  double readout_s() const override { return 0.02; }
+  Result<dev::Frame> capture(double) override {
+    if (on_capture) on_capture(captures);
+    ++captures;
+    if (gone) return device_failure(id(), "camera disappeared", false);
+    if (lose_frames > 0) {
+      --lose_frames;
+      clock_.sleep_s(exposure_ + readout_s());
+      return device_failure(id(), "frame incomplete (missing packets)", true);
+    }
+    clock_.sleep_s(exposure_ + readout_s());
+    dev::Frame f;
+    f.pixels = Image<std::uint16_t>(8, 6, 1, static_cast<std::uint16_t>(light_.state ? 100 + exposure_ * 1e5 : 5));
+    f.meta.exposure_s = exposure_;
+    f.meta.frame_id = 65400 + captures;
+    f.meta.timestamp_ns = static_cast<std::uint64_t>(clock_.now_s() * 1e9);
+    return f;
+  }
+  std::function<void(int)> on_capture;
+  int captures = 0;
+  int lose_frames = 0;
+  bool gone = false;
+
+ private:
+  Clock& clock_;
+  TestLight& light_;
+  double exposure_ = 1e-3;
+};
+
+ExrImage merge_mean(const std::vector<dev::Frame>& frames) {
+  ExrImage img;
+  ImageF y(frames[0].pixels.width(), frames[0].pixels.height(), 1);
+  for (const auto& f : frames)
+    for (std::size_t i = 0; i < y.size(); ++i) y.values()[i] += f.pixels.values()[i] / static_cast<float>(frames.size());
+  img.add("Y", y);
+  return img;
+}
+
+SessionManifest plan(int positions = 7) {
+  SessionManifest m;
+  m.sample = "blue-01";
+  m.rig_name = "test-rig";
+  m.rig_file = "/lab/rig.toml";
+  for (int i = 0; i < positions; ++i) m.angles_deg.push_back(i * 5.0);
+  m.exposures_s = {0.25e-3, 2e-3, 16e-3};
+  m.settle_s = 0.5;
+  return m;
+}
+
+struct Rig {
+  TestClock clock;
+  TestTable table{clock};
+  TestLight light;
+  TestCamera camera{clock, light};
+  RigHandles handles() { return {table, light, camera, clock}; }
+};
+
+// Every position of the plan is finished exactly once, with a valid checksum.
+void expect_complete(const SessionDir& s) {
+  SessionState st = s.inspect();
+  EXPECT_TRUE(st.todo.empty());
+  EXPECT_EQ(st.finished_count(), s.position_count());
+  for (int i = 0; i < s.position_count(); ++i) {
+    ASSERT_TRUE(st.finished[i].has_value()) << i;
+    EXPECT_EQ(st.finished[i]->file, SessionDir::hdr_name(i));
+    EXPECT_EQ(sha256_file(s.hdr_path(i)), st.finished[i]->sha256);
+    EXPECT_DOUBLE_EQ(st.finished[i]->angle_deg, s.manifest().angles_deg[i]);
+  }
+}
+
+}  // namespace
+
+TEST(Runner, FullSweepJournalsEveryPosition) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan());
+  Rig rig;
+  std::atomic<bool> stop{false};
+  Runner runner(s, rig.handles(), merge_mean);
+  RunSummary sum = runner.run(stop);
+  EXPECT_TRUE(sum.complete);
+  EXPECT_EQ(sum.measured, 7);
+  EXPECT_EQ(sum.frames, 21);
+  expect_complete(s);
+  auto entries = s.journal().read();
+  ASSERT_EQ(entries.size(), 7u);
+  const JournalEntry& e = entries[3];
+  EXPECT_EQ(e.index, 3);
+  EXPECT_DOUBLE_EQ(e.angle_read_deg, 15.0);
+  ASSERT_EQ(e.exposures_s.size(), 3u);
+  EXPECT_NEAR(e.exposures_s[0], 0.25e-3, 1e-12);  // applied value, read back
+  EXPECT_EQ(e.frame_ids.size(), 3u);
+  EXPECT_TRUE(e.led_was_on);
+  EXPECT_TRUE(e.led_off_after);
+  EXPECT_FALSE(rig.light.state);
+  // The journal line carries the contract fields.
+  std::ifstream in(s.dir() / "journal.jsonl");
+  std::string line;
+  std::getline(in, line);
+  Json j = Json::parse(line);
+  for (const char* key : {"index", "angle_deg", "file", "sha256"}) EXPECT_TRUE(j.contains(key)) << key;
+}
+
+TEST(Runner, SweepTimeIsCloseToThePhysicalMinimum) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(19));
+  Rig rig;
+  std::atomic<bool> stop{false};
+  RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+  ASSERT_TRUE(sum.complete);
+  EXPECT_GT(sum.physical_min_s(), 0);
+  EXPECT_LE(sum.sweep_s, 1.05 * sum.physical_min_s()) << "sweep " << sum.sweep_s << " s, minimum " << sum.physical_min_s();
+  EXPECT_GE(sum.sweep_s, 0.999 * sum.physical_min_s());
+}
+
+TEST(Runner, InterruptStopsSafelyAndResumeCompletes) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan());
+  std::atomic<bool> stop{false};
+  {
+    Rig rig;
+    rig.camera.on_capture = [&](int n) {
+      if (n == 10) stop = true;  // Ctrl-C in the middle of position 3's bracket
+    };
+    RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+    EXPECT_TRUE(sum.interrupted);
+    EXPECT_FALSE(sum.complete);
+    EXPECT_FALSE(rig.light.state) << "LED left on";
+    EXPECT_GE(rig.table.stops, 1);
+    EXPECT_EQ(sum.measured, 3);
+  }
+  SessionState st = s.inspect();
+  EXPECT_EQ(st.finished_count(), 3);
+  EXPECT_EQ(st.todo, (std::vector<int>{3, 4, 5, 6}));
+  stop = false;
+  Rig rig2;
+  RunSummary sum2 = Runner(s, rig2.handles(), merge_mean).run(stop);
+  EXPECT_TRUE(sum2.complete);
+  EXPECT_EQ(sum2.finished_before, 3);
+  EXPECT_EQ(sum2.measured, 4);
+  expect_complete(s);
+  EXPECT_EQ(s.journal().read().size(), 7u) << "no duplicate journal entries";
+}
+
+TEST(Runner, RetryableCameraFaultIsRetried) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(3));
+  Rig rig;
+  rig.camera.lose_frames = 2;
+  rig.table.fail_moves = 1;
+  std::atomic<bool> stop{false};
+  RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+  EXPECT_TRUE(sum.complete);
+  EXPECT_EQ(sum.retries, 3);
+  expect_complete(s);
+}
+
+TEST(Runner, PersistentFaultStopsSafelyWithAResumableJournal) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(5));
+  std::atomic<bool> stop{false};
+  {
+    Rig rig;
+    rig.camera.on_capture = [&](int n) {
+      if (n == 7) rig.camera.gone = true;
+    };
+    RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+    EXPECT_TRUE(sum.device_fault);
+    EXPECT_THAT(sum.stop_reason, HasSubstr("camera test"));
+    EXPECT_THAT(sum.stop_reason, HasSubstr("camera disappeared"));
+    EXPECT_FALSE(rig.light.state);
+    EXPECT_EQ(sum.measured, 2);
+  }
+  {
+    Rig rig;
+    rig.camera.lose_frames = 100;  // never cured: retries exhausted
+    RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+    EXPECT_TRUE(sum.device_fault);
+    EXPECT_THAT(sum.stop_reason, HasSubstr("after 3 retries"));
+  }
+  Rig rig;
+  EXPECT_TRUE(Runner(s, rig.handles(), merge_mean).run(stop).complete);
+  expect_complete(s);
+}
+
+TEST(Runner, StuckLedStopsTheRun) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(3));
+  Rig rig;
+  rig.light.stuck = true;  // never switches on
+  std::atomic<bool> stop{false};
+  RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+  EXPECT_TRUE(sum.device_fault);
+  EXPECT_THAT(sum.stop_reason, HasSubstr("did not switch on"));
+  EXPECT_EQ(s.inspect().finished_count(), 0);
+  Rig rig2;
+  rig2.camera.on_capture = [&](int n) {
+    if (n == 1) rig2.light.stuck = true;  // stuck on during the bracket
+  };
+  sum = Runner(s, rig2.handles(), merge_mean).run(stop);
+  EXPECT_TRUE(sum.device_fault);
+  EXPECT_THAT(sum.stop_reason, HasSubstr("stuck on"));
+}
+
+TEST(Runner, ResumeMeasuresMissingAndCorruptPositionsAgain) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(5));
+  std::atomic<bool> stop{false};
+  {
+    Rig rig;
+    ASSERT_TRUE(Runner(s, rig.handles(), merge_mean).run(stop).complete);
+  }
+  fs::remove(s.hdr_path(1));
+  { std::ofstream(s.hdr_path(3), std::ios::app) << "corruption"; }
+  SessionState st = s.inspect();
+  EXPECT_EQ(st.todo, (std::vector<int>{1, 3}));
+  ASSERT_EQ(st.problems.size(), 2u);
+  EXPECT_THAT(st.problems[0], HasSubstr("hdr/pos_001.exr: missing"));
+  EXPECT_THAT(st.problems[1], HasSubstr("hdr/pos_003.exr: checksum does not match"));
+  Rig rig;
+  RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+  EXPECT_TRUE(sum.complete);
+  EXPECT_EQ(sum.measured, 2);
+  expect_complete(s);
+  EXPECT_TRUE(fs::exists(s.dir() / "hdr/rejected/pos_003.exr.1")) << "the corrupt file is kept, not deleted";
+}
+
+TEST(Runner, TornJournalAndOrphanFileAreHandled) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(4));
+  std::atomic<bool> stop{false};
+  {
+    Rig rig;
+    rig.camera.on_capture = [&](int n) {
+      if (n == 6) stop = true;
+    };
+    Runner(s, rig.handles(), merge_mean).run(stop);
+  }
+  // A crash after pos 2's file was renamed into place but during its journal append.
+  fs::copy_file(s.hdr_path(0), s.hdr_path(2));
+  { std::ofstream(s.dir() / "journal.jsonl", std::ios::app) << "{\"index\": 2, \"angle"; }
+  stop = false;
+  Rig rig;
+  RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+  EXPECT_TRUE(sum.complete);
+  expect_complete(s);
+  EXPECT_EQ(s.journal().read().size(), 4u);
+  EXPECT_TRUE(fs::exists(s.dir() / "journal.jsonl.torn"));
+  EXPECT_TRUE(fs::exists(s.dir() / "hdr/rejected/pos_002.exr.1"));
+}
+
+TEST(Runner, KilledAtRandomPointsResumesToTheSameSession) {
+  // A child process runs the sweep and is SIGKILLed at some point (possibly inside an EXR
+  // write or a journal append); the parent resumes until complete.
+  test::TempDir d;
+  const int positions = 12;
+  SessionDir::create(d / "s", plan(positions));
+  for (int round = 0; round < 8; ++round) {
+    pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      SessionDir s = SessionDir::open(d / "s");
+      Rig rig;
+      rig.camera.on_capture = [&](int) { usleep(300); };
+      std::atomic<bool> stop{false};
+      Runner(s, rig.handles(), merge_mean).run(stop);
+      _exit(0);
+    }
+    usleep(2000 + 3000 * round);
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+  }
+  SessionDir s = SessionDir::open(d / "s");
+  Rig rig;
+  std::atomic<bool> stop{false};
+  RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
+  EXPECT_TRUE(sum.complete);
+  expect_complete(s);
+  // No duplicates among the valid entries, no torn files left in hdr/.
+  for (const auto& entry : fs::directory_iterator(s.dir() / "hdr"))
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path();
+}
+
+TEST(Session, RefusesAFolderHoldingAnotherSession) {
+  test::TempDir d;
+  SessionDir::create(d / "s", plan());
+  std::string before = read_file(d / "s/session.json");
+  SessionManifest other = plan();
+  other.sample = "red-07";
+  try {
+    SessionDir::create(d / "s", other);
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("already holds a session of sample 'blue-01'"));
+    EXPECT_THAT(std::string(e.what()), HasSubstr("paintlab measure --resume"));
+  }
+  EXPECT_EQ(read_file(d / "s/session.json"), before);
+  test::write_text(d / "other/notes.txt", "x");
+  EXPECT_THROW(SessionDir::create(d / "other", plan()), DataError);
+  SessionManifest empty = plan(0);
+  EXPECT_THROW(SessionDir::create(d / "e", empty), DataError);
+  EXPECT_THROW(SessionDir::open(d / "nothing"), DataError);
+}
