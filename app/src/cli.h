@@ -22,5 +22,6 @@ CLI::App* subcommand_group(CLI::App& app, const std::string& name, const std::st
 void say(const std::string& line);
 
 void register_rig_commands(CLI::App& app);
+void register_paint_commands(CLI::App& app);
 
 }  // namespace paintlab::app

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   app.fallthrough();
 
   app::register_rig_commands(app);
+  app::register_paint_commands(app);
 
   try {
     app.parse(argc, argv);
