@@ -14,6 +14,8 @@ struct ConfigTable::State {
   toml::table root;
   // Keys read so far, as full dotted paths.
   std::set<std::string, std::less<>> used;
+  // For a state made by with_own_usage(): the state that owns `root` and the tables.
+  std::shared_ptr<const State> owner;
 };
 
 namespace {
@@ -246,6 +248,13 @@ ConfigTable ConfigTable::table(std::string_view key) const {
   auto t = n.as_table();
   if (!t) fail(key, std::string("expected a table, got ") + type_name(n));
   return ConfigTable(state_, t, path(key));
+}
+
+ConfigTable ConfigTable::with_own_usage() const {
+  auto state = std::make_shared<State>();
+  state->file = state_->file;
+  state->owner = state_;
+  return ConfigTable(state, table_, prefix_);
 }
 
 std::optional<ConfigTable> ConfigTable::maybe_table(std::string_view key) const {

@@ -79,6 +79,10 @@ class ConfigTable {
 
   // Marks a key as read without reading it (for keys handled elsewhere).
   void accept(std::string_view key) const;
+  // The same table with its own, empty record of read keys: a second reader of a table
+  // that another reader accepted wholesale (a device section of rig.toml) can still
+  // reject unknown keys with finish(). Keeps the parsed document alive.
+  ConfigTable with_own_usage() const;
   // Throws a ConfigError naming the first key of this table that was never read.
   void finish() const;
   // Throws a ConfigError for `key` with `message` (file, line and full key filled in).

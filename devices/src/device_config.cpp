@@ -1,0 +1,49 @@
+#include "paintlab/devices/device_config.h"
+
+#include "paintlab/core/error.h"
+
+namespace paintlab::dev {
+
+namespace {
+// A view of the section with its own record of read keys: RigConfig accepted the whole
+// section, the driver's reader must still reject keys it does not know.
+ConfigTable fresh(const DeviceSection& s) {
+  if (!s.table) throw DataError("devices." + s.role + ": no table");
+  return s.table->with_own_usage();
+}
+}  // namespace
+
+ModbusTurntableConfig turntable_config(const DeviceSection& section) {
+  return modbus_turntable_config(fresh(section), section.kind);
+}
+
+GpiodLightConfig gpiod_config(const DeviceSection& section) { return gpiod_light_config(fresh(section)); }
+
+AravisCameraConfig camera_config(const DeviceSection& section, const RigGeometry& geometry) {
+  bool sim = section.kind == "sim";
+  AravisCameraConfig c = aravis_camera_config(fresh(section), sim);
+  // The simulated sensor has the rig's size unless the section says otherwise.
+  if (sim && c.width_px == 0) c.width_px = geometry.image_width_px;
+  if (sim && c.height_px == 0) c.height_px = geometry.image_height_px;
+  return c;
+}
+
+SimLightConfig sim_light_config(const DeviceSection& section) {
+  ConfigTable t = fresh(section);
+  SimLightConfig c;
+  c.max_on_s = t.number("max_on_s", c.max_on_s, Bounds::open(0, 86400));
+  t.accept("kind");
+  t.finish();
+  return c;
+}
+
+void validate_device_sections(const RigConfig& rig) {
+  turntable_config(rig.turntable);
+  if (rig.light.kind == "gpiod")
+    gpiod_config(rig.light);
+  else
+    sim_light_config(rig.light);
+  camera_config(rig.camera, rig.geometry);
+}
+
+}  // namespace paintlab::dev
