@@ -52,12 +52,13 @@ double AxfCarPaint::clearcoat_reflectance(double cos_theta) const { return fresn
 
 Rgb AxfCarPaint::eval(const Vec3& wi, const Vec3& wo) const {
   if (wi.z() <= 0.0 || wo.z() <= 0.0) return Rgb::Zero();
-  const Vec3 ibar = refract_into_coat(wi, p_.ior), obar = refract_into_coat(wo, p_.ior);
-  const Vec3 hbar = (ibar + obar).normalized();
-  const double theta_hbar = std::acos(std::clamp(hbar.z(), -1.0, 1.0));
-  const double theta_ibar = std::acos(std::clamp(hbar.dot(ibar), -1.0, 1.0));
-  const double transmit = (1.0 - fresnel_dielectric(wi.z(), p_.ior)) * (1.0 - fresnel_dielectric(wo.z(), p_.ior));
-  return p_.chi.eval(theta_hbar, theta_ibar) * (transmit * achromatic_refracted(ibar, obar));
+  const CoatGeometry<double> g = coat_geometry(p_.ior, wi, wo);
+  double f = p_.diffuse / std::numbers::pi;
+  for (const AxfLobe& l : p_.lobes)
+    f += l.coefficient * ct_lobe(l.spread, l.f0, g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
+  const double theta_hbar = std::acos(std::clamp(g.n_dot_hbar, -1.0, 1.0));
+  const double theta_ibar = std::acos(std::clamp(g.hbar_dot_obar, -1.0, 1.0));
+  return p_.chi.eval(theta_hbar, theta_ibar) * (g.transmittance * f);
 }
 
 }  // namespace paintlab::brdf

@@ -5,13 +5,7 @@
 namespace paintlab::brdf {
 
 double fresnel_dielectric(double cos_i, double eta) {
-  cos_i = std::clamp(cos_i, 0.0, 1.0);
-  const double sin_t2 = (1.0 - cos_i * cos_i) / (eta * eta);
-  if (sin_t2 >= 1.0) return 1.0;
-  const double cos_t = std::sqrt(1.0 - sin_t2);
-  const double rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-  const double rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-  return 0.5 * (rs * rs + rp * rp);
+  return fresnel_dielectric_t(std::clamp(cos_i, 0.0, 1.0), eta);
 }
 
 Vec3 refract_into_coat(const Vec3& w, double eta) {

@@ -20,28 +20,35 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kNaNf = std::numeric_limits<float>::quiet_NaN();
 
-int clamp_index(int v, int n) { return v < 0 ? 0 : (v >= n ? n - 1 : v); }
-
 // phi_d reduced to [0, pi] the way the reference does it (one addition of pi).
 double reduce_phi_d(double phi_d) { return phi_d < 0.0 ? phi_d + kPi : phi_d; }
 }  // namespace
 
+namespace {
+// Truncation towards zero as the reference's int() cast, safe for NaN and huge values.
+int truncate_clamped(double t, int n) {
+  if (!(t >= 0.0)) return 0;  // negative or NaN
+  if (t >= n) return n - 1;
+  return static_cast<int>(t);
+}
+}  // namespace
+
 int merl_theta_h_index(double theta_h) {
-  if (theta_h <= 0.0) return 0;
+  if (!(theta_h > 0.0)) return 0;
   // sqrt(theta_h / (pi/2) * 90 * 90), multiplied in the reference's order.
   const double deg_scaled = theta_h / (kPi / 2.0) * kMerlThetaH;
   const double t = std::sqrt(deg_scaled * kMerlThetaH);
-  return clamp_index(static_cast<int>(t), kMerlThetaH);
+  return truncate_clamped(t, kMerlThetaH);
 }
 
 int merl_theta_d_index(double theta_d) {
-  return clamp_index(static_cast<int>(theta_d / (kPi * 0.5) * kMerlThetaD), kMerlThetaD);
+  return truncate_clamped(theta_d / (kPi * 0.5) * kMerlThetaD, kMerlThetaD);
 }
 
 int merl_phi_d_index(double phi_d) {
   phi_d = reduce_phi_d(phi_d);
   // The reference writes 180 as 360 / 2 (its constant counts the full circle).
-  return clamp_index(static_cast<int>(phi_d / kPi * (2 * kMerlPhiD) / 2), kMerlPhiD);
+  return truncate_clamped(phi_d / kPi * (2 * kMerlPhiD) / 2, kMerlPhiD);
 }
 
 MerlBin merl_bin(const HalfDiff& hd) {
@@ -116,6 +123,7 @@ std::optional<Rgb> MerlTable::lookup_nearest(const HalfDiff& hd) const {
 
 std::optional<Rgb> MerlTable::lookup(const HalfDiff& hd) const {
   // Continuous cell coordinates: bin i spans [i, i + 1), its centre is at i + 0.5.
+  if (!std::isfinite(hd.theta_h) || !std::isfinite(hd.theta_d) || !std::isfinite(hd.phi_d)) return std::nullopt;
   const double th = std::max(hd.theta_h, 0.0);
   double u = std::sqrt(th / (kPi / 2.0)) * kMerlThetaH - 0.5;
   double v = hd.theta_d / (kPi / 2.0) * kMerlThetaD - 0.5;

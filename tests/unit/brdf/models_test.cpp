@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -316,4 +317,31 @@ TEST(MerlFromPaint, AgreesWithThePaintWithinBinningError) {
   EXPECT_LT(median, 0.001);
   EXPECT_LT(p99, 0.006);
   EXPECT_LT(rel.back(), 0.02);
+}
+
+TEST(CarPaint, CoatGeometryWorksWithCeresJets) {
+  using J = ceres::Jet<double, 1>;
+  const Vec3 wi = from_angles(55, 10), wo = from_angles(25, 200);
+  const auto g = coat_geometry(J(1.5, 0), wi, wo);
+  const auto g0 = coat_geometry(1.5, wi, wo);
+  EXPECT_NEAR(g.transmittance.a, g0.transmittance, 1e-15);
+  const double eps = 1e-6;
+  const double d = (coat_geometry(1.5 + eps, wi, wo).transmittance - coat_geometry(1.5 - eps, wi, wo).transmittance) /
+                   (2 * eps);
+  EXPECT_NEAR(g.transmittance.v[0], d, 1e-6 * std::abs(d));
+  // The cosines match the refracted directions.
+  const Vec3 ib = refract_into_coat(wi, 1.5), ob = refract_into_coat(wo, 1.5), hb = (ib + ob).normalized();
+  EXPECT_NEAR(g0.n_dot_hbar, hb.z(), 1e-12);
+  EXPECT_NEAR(g0.hbar_dot_obar, hb.dot(ob), 1e-12);
+  EXPECT_NEAR(g0.hbar_dot_obar, hb.dot(ib), 1e-12);
+  EXPECT_NEAR(g0.n_dot_ibar, ib.z(), 1e-12);
+}
+
+TEST(MerlFromPaint, DegenerateAnglesAreSafe) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(merl_bin({nan, nan, nan, nan}), (MerlBin{0, 0, 0}));
+  EXPECT_EQ(merl_bin({1e300, 0, 1e300, 1e300}), (MerlBin{89, 89, 179}));
+  MerlTable t;
+  t.set_value(0, Rgb::Ones(), BinState::Measured);
+  EXPECT_FALSE(t.lookup({nan, 0, 0.1, 0.1}).has_value());
 }

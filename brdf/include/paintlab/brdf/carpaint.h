@@ -12,8 +12,39 @@
 #include <vector>
 
 #include "paintlab/brdf/brdf.h"
+#include "paintlab/brdf/fresnel.h"
 
 namespace paintlab::brdf {
+
+// What the car-paint model needs of one (wi, wo) pair seen through a clear coat of index
+// eta: the cosines of ct_lobe() in refracted directions, the angles chi is indexed by
+// (cos theta_hbar = n_dot_hbar, cos theta_ibar = hbar_dot_obar, since hbar.ibar = hbar.obar)
+// and the transmittance (1 - F_eta(n.wi))(1 - F_eta(n.wo)). Templated so a fit can treat
+// eta as a parameter (ceres::Jet). wi and wo must be above the horizon.
+template <class T>
+struct CoatGeometry {
+  T n_dot_hbar;
+  T hbar_dot_obar;
+  T n_dot_ibar;
+  T n_dot_obar;
+  T transmittance;
+};
+
+template <class T>
+CoatGeometry<T> coat_geometry(const T& eta, const Vec3& wi, const Vec3& wo) {
+  using std::sqrt;
+  const T ix = T(wi.x()) / eta, iy = T(wi.y()) / eta, ox = T(wo.x()) / eta, oy = T(wo.y()) / eta;
+  const T iz = sqrt(T(1.0) - ix * ix - iy * iy), oz = sqrt(T(1.0) - ox * ox - oy * oy);
+  const T hx = ix + ox, hy = iy + oy, hz = iz + oz;
+  const T len = sqrt(hx * hx + hy * hy + hz * hz);
+  CoatGeometry<T> g;
+  g.n_dot_hbar = hz / len;
+  g.hbar_dot_obar = (hx * ox + hy * oy + hz * oz) / len;
+  g.n_dot_ibar = iz;
+  g.n_dot_obar = oz;
+  g.transmittance = (T(1.0) - fresnel_dielectric_t(T(wi.z()), eta)) * (T(1.0) - fresnel_dielectric_t(T(wo.z()), eta));
+  return g;
+}
 
 struct AxfLobe {
   double coefficient = 0;  // s_k >= 0 (achromatic)
