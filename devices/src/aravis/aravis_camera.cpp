@@ -72,6 +72,17 @@ std::string take_error(GError*& e) {
 
 void on_control_lost(ArvDevice*, gpointer data) { static_cast<std::atomic<bool>*>(data)->store(true); }
 
+// Like take_error, and a control command that failed after Aravis' own retries (timeout,
+// not connected, transfer error) marks the camera gone: every later command would wait
+// for the same timeouts.
+std::string take_control_error(GError*& e, std::atomic<bool>& lost) {
+  if (e && e->domain == ARV_DEVICE_ERROR &&
+      (e->code == ARV_DEVICE_ERROR_TIMEOUT || e->code == ARV_DEVICE_ERROR_NOT_CONNECTED ||
+       e->code == ARV_DEVICE_ERROR_TRANSFER_ERROR))
+    lost.store(true);
+  return take_error(e);
+}
+
 }  // namespace
 
 void AravisCameraConfig::check() const {
@@ -224,7 +235,7 @@ Result<void> AravisCamera::start_stream_locked() {
 void AravisCamera::stop_stream_locked() {
   if (!impl_->stream) return;
   GError* err = nullptr;
-  arv_camera_stop_acquisition(impl_->camera, &err);
+  if (!impl_->lost.load()) arv_camera_stop_acquisition(impl_->camera, &err);
   g_clear_error(&err);
   g_object_unref(impl_->stream);
   impl_->stream = nullptr;
@@ -236,7 +247,7 @@ Result<ExposureRange> AravisCamera::exposure_range() {
   GError* err = nullptr;
   double lo = 0, hi = 0;
   arv_camera_get_exposure_time_bounds(impl_->camera, &lo, &hi, &err);
-  if (err) return device_failure(id(), "cannot read the exposure bounds: " + take_error(err), true);
+  if (err) return device_failure(id(), "cannot read the exposure bounds: " + take_control_error(err, impl_->lost), true);
   return ExposureRange{lo * 1e-6, hi * 1e-6};
 }
 
@@ -246,16 +257,16 @@ Result<double> AravisCamera::set_exposure(double seconds) {
   GError* err = nullptr;
   double lo = 0, hi = 0;
   arv_camera_get_exposure_time_bounds(impl_->camera, &lo, &hi, &err);
-  if (err) return device_failure(id(), "cannot read the exposure bounds: " + take_error(err), true);
+  if (err) return device_failure(id(), "cannot read the exposure bounds: " + take_control_error(err, impl_->lost), true);
   double us = seconds * 1e6;
   if (!std::isfinite(us) || us < lo || us > hi)
     return device_failure(id(), fmt::format("exposure {:g} s is outside the camera's range [{:g}, {:g}] s", seconds,
                                             lo * 1e-6, hi * 1e-6),
                           false);
   arv_camera_set_exposure_time(impl_->camera, us, &err);
-  if (err) return device_failure(id(), "cannot set the exposure time: " + take_error(err), true);
+  if (err) return device_failure(id(), "cannot set the exposure time: " + take_control_error(err, impl_->lost), true);
   double back = arv_camera_get_exposure_time(impl_->camera, &err);
-  if (err) return device_failure(id(), "cannot read the exposure time back: " + take_error(err), true);
+  if (err) return device_failure(id(), "cannot read the exposure time back: " + take_control_error(err, impl_->lost), true);
   double applied = back * 1e-6;
   if (applied != exposure_s_) pending_settle_ = config_.settle_frames;
   exposure_s_ = applied;
@@ -283,13 +294,13 @@ Result<double> AravisCamera::set_gain_db(double gain_db) {
   }
   double lo = 0, hi = 0;
   arv_camera_get_gain_bounds(impl_->camera, &lo, &hi, &err);
-  if (err) return device_failure(id(), "cannot read the gain bounds: " + take_error(err), true);
+  if (err) return device_failure(id(), "cannot read the gain bounds: " + take_control_error(err, impl_->lost), true);
   if (!std::isfinite(value) || value < lo || value > hi)
     return device_failure(id(), fmt::format("gain {:g} dB is outside the camera's range", gain_db), false);
   arv_camera_set_gain(impl_->camera, value, &err);
-  if (err) return device_failure(id(), "cannot set the gain: " + take_error(err), true);
+  if (err) return device_failure(id(), "cannot set the gain: " + take_control_error(err, impl_->lost), true);
   double back = arv_camera_get_gain(impl_->camera, &err);
-  if (err) return device_failure(id(), "cannot read the gain back: " + take_error(err), true);
+  if (err) return device_failure(id(), "cannot read the gain back: " + take_control_error(err, impl_->lost), true);
   double applied = impl_->has_float_gain ? back : back * config_.gain_db_per_raw;
   if (applied != gain_db_) pending_settle_ = config_.settle_frames;
   gain_db_ = applied;
@@ -305,7 +316,7 @@ Result<PixelFormat> AravisCamera::read_format_locked() {
   if (auto r = lost_check(); !r) return tl::unexpected(r.error());
   GError* err = nullptr;
   ArvPixelFormat f = arv_camera_get_pixel_format(impl_->camera, &err);
-  if (err) return device_failure(id(), "cannot read PixelFormat: " + take_error(err), true);
+  if (err) return device_failure(id(), "cannot read PixelFormat: " + take_control_error(err, impl_->lost), true);
   auto p = from_arv(f);
   if (!p) return device_failure(id(), fmt::format("unsupported PixelFormat 0x{:08X}", static_cast<unsigned>(f)), false);
   return *p;
@@ -320,7 +331,7 @@ Result<void> AravisCamera::set_pixel_format(PixelFormat format) {
   GError* err = nullptr;
   arv_camera_set_pixel_format(impl_->camera, to_arv(format), &err);
   if (err) {
-    std::string m = take_error(err);
+    std::string m = take_control_error(err, impl_->lost);
     start_stream_locked();
     return device_failure(id(), std::string("cannot set PixelFormat ") + to_string(format) + ": " + m, false);
   }
@@ -354,7 +365,7 @@ Result<Frame> AravisCamera::capture(double timeout_s) {
     GError* err = nullptr;
     arv_camera_software_trigger(impl_->camera, &err);
     if (err) {
-      last = "software trigger failed: " + take_error(err);
+      last = "software trigger failed: " + take_control_error(err, impl_->lost);
       ++failures;
       if (impl_->lost.load()) break;
       continue;

@@ -267,6 +267,14 @@ void GigeCamera::start() {
   arv_fake_camera_write_register(fake, kRegHeight, h);
   arv_fake_camera_write_register(fake, kRegPixelFormat, pfnc(options_.format));
   arv_fake_camera_write_register(fake, kRegBlackLevel, 0);
+  // Bootstrap device information (the fake's defaults say "Aravis", "Fake").
+  auto put_string = [&](std::uint32_t address, std::size_t length, const std::string& text) {
+    std::vector<char> b(length, '\0');
+    std::copy_n(text.begin(), std::min(text.size(), length - 1), b.begin());
+    arv_fake_camera_write_memory(fake, address, static_cast<std::uint32_t>(length), b.data());
+  };
+  put_string(0x48, 32, "paintlab");
+  put_string(0x68, 32, "PaintlabSim");
   arv_fake_camera_set_fill_pattern(fake, &Impl::on_fill, this);
   impl_->gv = gv;
   impl_->fake = fake;
@@ -303,6 +311,7 @@ void GigeCamera::fill(void* vbuffer, std::uint32_t exposure_us, std::uint32_t ga
   auto* buffer = static_cast<ArvBuffer*>(vbuffer);
   FrameSource source;
   FrameRequest r;
+  std::size_t payload = 0;
   bool damage = false;
   ArvGvFakeCamera* gv = nullptr;
   {
@@ -321,6 +330,7 @@ void GigeCamera::fill(void* vbuffer, std::uint32_t exposure_us, std::uint32_t ga
     r.width = static_cast<int>(w);
     r.height = static_cast<int>(h);
     r.index = frames_.load();
+    payload = arv_fake_camera_get_payload(impl_->fake);
     source = source_;
     gv = impl_->gv;
     if (faults_.incomplete_frames > 0) {
@@ -331,11 +341,13 @@ void GigeCamera::fill(void* vbuffer, std::uint32_t exposure_us, std::uint32_t ga
   // Packet loss for this frame only (the fake drops GVSP packets at this ratio; it never
   // answers resend requests, so the frame arrives incomplete).
   g_object_set(gv, "gvsp-lost-ratio", damage ? 0.5 : 0.0, nullptr);
+  // The fake allocated the buffer for its current payload (arv_buffer_get_data reports the
+  // received size, 0 while filling).
   std::size_t size = 0;
   auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
   std::size_t n = static_cast<std::size_t>(r.width) * r.height;
   std::size_t bpp = r.format == dev::PixelFormat::Mono8 ? 1 : 2;
-  if (!data || size < n * bpp) return;
+  if (!data || std::max(size, payload) < n * bpp) return;
   std::vector<std::uint16_t> px(n, 0);
   if (source) source(r, px.data());
   if (bpp == 1) {
