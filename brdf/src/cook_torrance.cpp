@@ -25,8 +25,18 @@ LobeGeometry LobeGeometry::from_half_diff(double theta_h, double theta_d, double
 
 Rgb CookTorrance::eval_at(const LobeGeometry& g) const {
   if (!g.valid) return Rgb::Zero();
+  // ct_lobe() per lobe, with the terms every lobe shares computed once (the simulator
+  // evaluates this per pixel): tan^2, cos^4, G, (1 - h.wo)^5 and the denominator.
+  const double c2 = g.n_dot_h * g.n_dot_h;
+  const double tan2 = (1.0 - c2) / c2;
+  const double x = 1.0 - g.h_dot_wo, x2 = x * x, x5 = x2 * x2 * x;
+  const double common = ct_geometry(g.n_dot_h, g.h_dot_wo, g.n_dot_wi, g.n_dot_wo) /
+                        (std::numbers::pi * g.n_dot_wi * g.n_dot_wo * c2 * c2);
   Rgb f = kd_ * (1.0 / std::numbers::pi);
-  for (const CtLobe& l : lobes_) f += l.ks * ct_lobe(l.m, l.r, g);
+  for (const CtLobe& l : lobes_) {
+    const double m2 = l.m * l.m;
+    f += l.ks * ((l.r + (1.0 - l.r) * x5) * std::exp(-tan2 / m2) / m2 * common);
+  }
   return f;
 }
 
