@@ -279,12 +279,10 @@ TEST(PaintFile, ShippedPaintsValidateAndBuildTheirModels) {
 TEST(PaintFile, MerlPaintLoadsItsTable) {
   test::TempDir d;
   MerlTable t;
-  const std::size_t bin = merl_flat_index({0, 30, 0});
   for (std::size_t b = 0; b < kMerlBins; ++b) t.set_value(b, Rgb(0.1, 0.2, 0.3), BinState::Measured);
   write_merl(d / "white.binary", t);
   test::write_text(d / "w.toml", "name = \"w\"\nmodel = \"merl\"\ntable = \"white.binary\"\n");
   const auto brdf = make_brdf(load_paint_file(d / "w.toml"));
   EXPECT_EQ(brdf->model(), "merl");
   EXPECT_THAT(brdf->eval(Vec3(0.5, 0, 0.866), Vec3(-0.5, 0, 0.866)), test::RgbNear(Rgb(0.1, 0.2, 0.3), 1e-12));
-  (void)bin;
 }
