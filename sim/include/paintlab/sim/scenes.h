@@ -1,0 +1,67 @@
+#pragma once
+// Calibration scenes rendered through the simulated camera (same intrinsics, distortion
+// and pixel grid as the sphere, so Sensor::expose() turns them into raw frames): a planar
+// chessboard at a pose with sub-pixel accurate edges, a dark frame and a uniform field
+// for flat fielding. The white reference sphere is SimWorld::render_with() with a
+// brdf::Lambertian paint.
+#include <cstdint>
+#include <vector>
+
+#include "paintlab/core/geometry.h"
+#include "paintlab/core/image.h"
+#include "paintlab/sim/camera_model.h"
+
+namespace paintlab::sim {
+
+// A printed chessboard. Board frame (OpenCV's object points): origin at the first inner
+// corner, x along a row of corners, y down the rows, z = 0 on the board, +z away from the
+// side that carries the print.
+struct Chessboard {
+  int cols = 9;                 // inner corners per row (OpenCV patternSize.width)
+  int rows = 6;                 // inner corners per column (patternSize.height)
+  double square_m = 0.02;
+  double margin_squares = 1.0;  // white border around the outer squares, in squares
+  double white_albedo = 0.8;
+  double black_albedo = 0.04;
+
+  // Inner corners in the board frame, row by row (x fastest): cv::findChessboardCorners' order.
+  std::vector<Vec3> corners() const;
+  // The printed area (squares + margin) in the board frame: [lo, hi] in x and y.
+  Vec2 outline_lo() const;
+  Vec2 outline_hi() const;
+  // Albedo at a board point (outside the printed area: -1).
+  double albedo(double x, double y) const;
+  void check() const;  // DataError naming the bad field
+};
+
+// How a planar target is lit: uniformly (radiance = albedo * irradiance / pi) in front of
+// a background of constant radiance.
+struct PlaneLighting {
+  double irradiance_w_m2 = 1.0;
+  double background_radiance = 0.0;
+};
+
+// Radiance of the chessboard at cam_from_board. Pixels whose footprint crosses an edge
+// are supersampled with samples x samples points (the others are uniform), so edges are
+// placed with sub-pixel accuracy. channels: 1 or 3 (grey).
+ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, const Rigid3& cam_from_board,
+                         const PlaneLighting& lighting = {}, int samples = 16, int channels = 1, int threads = 0);
+
+// Pixel positions of board-frame points (cv::projectPoints with the camera's K and dist).
+std::vector<Vec2> project_points(const CameraModel& camera, const Rigid3& cam_from_board,
+                                 const std::vector<Vec3>& points_board);
+
+// `count` varied poses (tilts up to about 40 deg, boards filling 30-60 % of the width,
+// spread over the image) at which the whole printed board is inside the image with a
+// margin, facing the camera. Deterministic for a seed. Throws DataError if the board
+// cannot fit the image at all.
+std::vector<Rigid3> chessboard_poses(const CameraModel& camera, const Chessboard& board, int count,
+                                     std::uint64_t seed);
+
+// A uniform scene radiance over the whole image (a diffuser in front of the lens: flat field).
+ImageF uniform_field(const CameraModel& camera, double radiance, int channels = 1);
+// No light at all (lens cap): the sensor pass then gives dark current, read noise, black
+// level and hot pixels.
+ImageF dark_field(const CameraModel& camera, int channels = 1);
+
+}  // namespace paintlab::sim

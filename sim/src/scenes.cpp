@@ -1,0 +1,204 @@
+#include "paintlab/sim/scenes.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+
+#include "paintlab/core/error.h"
+#include "parallel.h"
+#include "rng.h"
+
+namespace paintlab::sim {
+
+std::vector<Vec3> Chessboard::corners() const {
+  std::vector<Vec3> out;
+  out.reserve(static_cast<std::size_t>(cols) * rows);
+  for (int j = 0; j < rows; ++j)
+    for (int i = 0; i < cols; ++i) out.emplace_back(i * square_m, j * square_m, 0.0);
+  return out;
+}
+
+Vec2 Chessboard::outline_lo() const { return Vec2::Constant(-(1.0 + margin_squares) * square_m); }
+
+Vec2 Chessboard::outline_hi() const {
+  return {(cols + margin_squares) * square_m, (rows + margin_squares) * square_m};
+}
+
+double Chessboard::albedo(double x, double y) const {
+  Vec2 lo = outline_lo(), hi = outline_hi();
+  if (x < lo.x() || y < lo.y() || x > hi.x() || y > hi.y()) return -1.0;
+  double u = x / square_m, v = y / square_m;
+  if (u < -1.0 || v < -1.0 || u >= cols || v >= rows) return white_albedo;  // the margin
+  auto iu = static_cast<long>(std::floor(u)), iv = static_cast<long>(std::floor(v));
+  return ((iu + iv) & 1) ? white_albedo : black_albedo;
+}
+
+void Chessboard::check() const {
+  if (cols < 2 || rows < 2) throw DataError("chessboard: needs at least 2 x 2 inner corners");
+  if (!(square_m > 0)) throw DataError("chessboard: square_m must be > 0");
+  if (!(margin_squares >= 0)) throw DataError("chessboard: margin_squares must be >= 0");
+  if (!(white_albedo >= 0 && black_albedo >= 0 && white_albedo <= 1 && black_albedo <= 1))
+    throw DataError("chessboard: albedos must be in [0, 1]");
+}
+
+namespace {
+
+// Board coordinates of the ray through normalised (x, y); false when the ray meets the
+// board's plane behind the camera. hinv = inverse of [r1 r2 t] (board plane -> normalised).
+inline bool board_point(const Mat3& hinv, const Vec2& xn, Vec2* out) {
+  Vec3 v = hinv * Vec3(xn.x(), xn.y(), 1.0);
+  if (v.z() <= 0) return false;
+  *out = v.head<2>() / v.z();
+  return true;
+}
+
+// Region id of a board point: which square (or margin/outside part) it lies in. Pixels
+// whose four corners share an id are uniform.
+inline std::int64_t region(const Chessboard& b, bool front, const Vec2& p) {
+  if (!front) return -1;
+  double a = b.albedo(p.x(), p.y());
+  if (a < 0) return -2;
+  auto iu = static_cast<std::int64_t>(std::floor(p.x() / b.square_m));
+  auto iv = static_cast<std::int64_t>(std::floor(p.y() / b.square_m));
+  return ((iv + 1024) * 4096 + (iu + 1024)) * 2 + (a == b.white_albedo ? 1 : 0);
+}
+
+}  // namespace
+
+ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, const Rigid3& cam_from_board,
+                         const PlaneLighting& lighting, int samples, int channels, int threads) {
+  board.check();
+  if (samples < 1 || samples > 64) throw DataError("chessboard: samples must be in [1, 64]");
+  if (channels != 1 && channels != 3) throw DataError("chessboard: channels must be 1 or 3");
+  Mat3 R = cam_from_board.matrix();
+  Mat3 h;
+  h.col(0) = R.col(0);
+  h.col(1) = R.col(1);
+  h.col(2) = cam_from_board.translation;
+  if (std::abs(h.determinant()) < 1e-15) throw DataError("chessboard: the board is seen edge-on");
+  Mat3 hinv = h.inverse();
+  // The print faces the camera when the board's +z points away from it.
+  bool print_faces_camera = R.col(2).dot(cam_from_board.translation) > 0;
+  const double scale = lighting.irradiance_w_m2 / kPi;
+  auto radiance = [&](bool front, const Vec2& p) {
+    if (!front) return lighting.background_radiance;
+    double a = board.albedo(p.x(), p.y());
+    return a < 0 ? lighting.background_radiance : a * scale;
+  };
+
+  const int w = camera.width(), hgt = camera.height();
+  const auto& grid = camera.corner_grid();
+  const std::size_t gw = static_cast<std::size_t>(w) + 1;
+  ImageF out(w, hgt, channels, 0.0f);
+  detail::parallel_rows(hgt, threads, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      std::array<std::int64_t, 4> ids;
+      Vec2 p;
+      for (int k = 0; k < 4; ++k) {
+        const Vec2& xn = grid[(static_cast<std::size_t>(y) + (k >> 1)) * gw + x + (k & 1)];
+        bool front = print_faces_camera && board_point(hinv, xn, &p);
+        ids[k] = region(board, front, p);
+      }
+      double v;
+      if (ids[0] == ids[1] && ids[0] == ids[2] && ids[0] == ids[3]) {
+        bool front = print_faces_camera && board_point(hinv, camera.grid_point(x, y, 0.5, 0.5), &p);
+        v = radiance(front, p);
+      } else {
+        double sum = 0;
+        for (int b = 0; b < samples; ++b)
+          for (int a = 0; a < samples; ++a) {
+            bool front = print_faces_camera &&
+                         board_point(hinv, camera.grid_point(x, y, (a + 0.5) / samples, (b + 0.5) / samples), &p);
+            sum += radiance(front, p);
+          }
+        v = sum / (samples * samples);
+      }
+      float* px = &out.at(x, y, 0);
+      for (int c = 0; c < channels; ++c) px[c] = static_cast<float>(v);
+    }
+  });
+  camera.blur(out, threads);
+  return out;
+}
+
+std::vector<Vec2> project_points(const CameraModel& camera, const Rigid3& cam_from_board,
+                                 const std::vector<Vec3>& points_board) {
+  std::vector<Vec2> out;
+  out.reserve(points_board.size());
+  for (const Vec3& p : points_board) out.push_back(camera.project(cam_from_board * p));
+  return out;
+}
+
+std::vector<Rigid3> chessboard_poses(const CameraModel& camera, const Chessboard& board, int count,
+                                     std::uint64_t seed) {
+  board.check();
+  if (count < 1) return {};
+  const auto& t = camera.truth();
+  const double w = camera.width(), h = camera.height();
+  const Vec2 lo = board.outline_lo(), hi = board.outline_hi();
+  const double board_w = hi.x() - lo.x();
+  const Vec3 centre_board(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), 0.0);
+  const double margin_px = 0.02 * std::min(w, h);
+  std::uint64_t counter = 0;
+  auto uniform = [&](double a, double b) {
+    return a + (b - a) * detail::uniform01(detail::hash_key(seed, 0x504f'5345 /* "POSE" */, counter++));
+  };
+  auto fits = [&](const Rigid3& pose) {
+    Vec3 n = pose.rotation * Vec3::UnitZ();
+    if (n.dot(pose * centre_board) <= 0) return false;  // print must face the camera
+    for (int k = 0; k < 4; ++k) {
+      Vec3 q((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), 0.0);
+      Vec3 pc = pose * q;
+      if (pc.z() <= 0.05 * pose.translation.z()) return false;
+      Vec2 px = camera.project(pc);
+      if (px.x() < margin_px || px.y() < margin_px || px.x() > w - 1 - margin_px || px.y() > h - 1 - margin_px)
+        return false;
+      // Stay where the distortion model is monotone: compare with the undistorted position.
+      Vec2 xn(pc.x() / pc.z(), pc.y() / pc.z());
+      if ((camera.unproject(px) - xn).norm() > 1e-6) return false;
+    }
+    return true;
+  };
+
+  std::vector<Rigid3> poses;
+  for (int k = 0; k < count; ++k) {
+    bool found = false;
+    for (int attempt = 0; attempt < 2000 && !found; ++attempt) {
+      // Later attempts use smaller boards and milder tilts.
+      double shrink = 1.0 - 0.4 * std::min(1.0, attempt / 1000.0);
+      double fill = uniform(0.3, 0.6) * shrink;
+      double distance = t.fx_px * board_w / (fill * w);
+      double tilt = deg_to_rad(40.0) * shrink;
+      double ax = uniform(-tilt, tilt), ay = uniform(-tilt, tilt), roll = uniform(-deg_to_rad(20), deg_to_rad(20));
+      // Spread the board centres over a 3 x 3 grid of image regions.
+      int cell = k % 9;
+      double u = (0.5 + (cell % 3)) / 3.0 * w + uniform(-0.12, 0.12) * w;
+      double v = (0.5 + (cell / 3)) / 3.0 * h + uniform(-0.12, 0.12) * h;
+      Vec3 ray = camera.ray_cam(Vec2(u, v));
+      Rigid3 pose;
+      pose.rotation = Eigen::AngleAxisd(ax, Vec3::UnitX()) * Eigen::AngleAxisd(ay, Vec3::UnitY()) *
+                      Eigen::AngleAxisd(roll, Vec3::UnitZ());
+      pose.translation = ray * (distance / ray.z()) - pose.rotation * centre_board;
+      if (fits(pose)) {
+        poses.push_back(pose);
+        found = true;
+      }
+    }
+    if (!found)
+      throw DataError("chessboard_poses: a " + std::to_string(board.cols) + "x" + std::to_string(board.rows) +
+                      " board does not fit the " + std::to_string(camera.width()) + "x" +
+                      std::to_string(camera.height()) + " image at any tried pose");
+  }
+  return poses;
+}
+
+ImageF uniform_field(const CameraModel& camera, double radiance, int channels) {
+  if (channels != 1 && channels != 3) throw DataError("uniform field: channels must be 1 or 3");
+  if (!(radiance >= 0)) throw DataError("uniform field: radiance must be >= 0");
+  return ImageF(camera.width(), camera.height(), channels, static_cast<float>(radiance));
+}
+
+ImageF dark_field(const CameraModel& camera, int channels) { return uniform_field(camera, 0.0, channels); }
+
+}  // namespace paintlab::sim

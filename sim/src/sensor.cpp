@@ -1,0 +1,224 @@
+#include "paintlab/sim/sensor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "paintlab/core/error.h"
+#include "parallel.h"
+#include "rng.h"
+
+namespace paintlab::sim {
+
+namespace detail {
+
+double inverse_normal_cdf(double p) {
+  double lo = -40.0, hi = 40.0;
+  for (int i = 0; i < 200; ++i) {
+    double mid = 0.5 * (lo + hi);
+    double cdf = 0.5 * std::erfc(-mid / std::sqrt(2.0));
+    (cdf < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+NormalTable::NormalTable() {
+  constexpr int n = 4097;
+  for (int k = 0; k < n; ++k) nodes_[k] = static_cast<float>(inverse_normal_cdf((k + 0.5) / n));
+  // Variance of the piecewise-linear sampler: mean over segments of (a^2 + ab + b^2) / 3.
+  double var = 0;
+  for (int k = 0; k + 1 < n; ++k) {
+    double a = nodes_[k], b = nodes_[k + 1];
+    var += (a * a + a * b + b * b) / 3.0;
+  }
+  var /= (n - 1);
+  float scale = static_cast<float>(1.0 / std::sqrt(var));
+  for (auto& v : nodes_) v *= scale;
+}
+
+const NormalTable& NormalTable::get() {
+  static const NormalTable table;
+  return table;
+}
+
+}  // namespace detail
+
+namespace {
+// Stream ids of the counter-based generator.
+constexpr std::uint64_t kStreamPrnu = 0x5052'4e55;   // "PRNU"
+constexpr std::uint64_t kStreamHot = 0x484f'5450;    // "HOTP"
+constexpr std::uint64_t kStreamFrame = 0x4652'414d;  // "FRAM"
+constexpr double kPlanck = 6.62607015e-34;
+constexpr double kLightSpeed = 2.99792458e8;
+}  // namespace
+
+ResponseCurve::ResponseCurve(std::vector<double> coefficients) : c_(std::move(coefficients)) {
+  if (c_.empty()) throw DataError("response curve: needs at least one coefficient");
+  linear_ = c_.size() == 1 || std::all_of(c_.begin() + 1, c_.end(), [](double v) { return v == 0.0; });
+}
+
+double ResponseCurve::operator()(double x) const {
+  if (x <= 0) return c_[0] * x;
+  double y = 0;
+  for (std::size_t k = c_.size(); k-- > 0;) y = (y + c_[k]) * x;
+  return y;
+}
+
+double ResponseCurve::slope(double x) const {
+  if (x <= 0) return c_[0];
+  double d = 0;
+  for (std::size_t k = c_.size(); k-- > 0;) d = d * x + static_cast<double>(k + 1) * c_[k];
+  return d;
+}
+
+double ResponseCurve::inverse(double y) const {
+  y = std::clamp(y, 0.0, 1.0);
+  double lo = 0, hi = 1;
+  for (int i = 0; i < 80; ++i) {
+    double mid = 0.5 * (lo + hi);
+    ((*this)(mid) < y ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+Sensor::Sensor(const CameraModel& camera, const SensorParams& params, std::uint64_t seed)
+    : p_(params), response_(params.response_poly), seed_(seed), width_(camera.width()), height_(camera.height()) {
+  double photon_j = kPlanck * kLightSpeed / (p_.wavelength_nm * 1e-9);
+  double area = camera.truth().pixel_size_m * camera.truth().pixel_size_m;
+  double base = p_.qe * area * camera.irradiance_per_radiance() / photon_j;
+  double half_diag2 = 0.25 * (static_cast<double>(width_) * width_ + static_cast<double>(height_) * height_);
+  const auto& v = camera.truth().vignetting;
+  const auto& table = detail::NormalTable::get();
+  gain_map_.resize(static_cast<std::size_t>(width_) * height_);
+  camera.corner_grid();
+  detail::parallel_rows(height_, 0, [&](int y) {
+    for (int x = 0; x < width_; ++x) {
+      Vec2 xn = camera.grid_point(x, y, 0.5, 0.5);
+      double cos2 = 1.0 / (1.0 + xn.squaredNorm());
+      double rho2 = (Vec2(x, y) - Vec2(camera.truth().cx_px, camera.truth().cy_px)).squaredNorm() / half_diag2;
+      double vig = cos2 * cos2 * (1.0 + v[0] * rho2 + v[1] * rho2 * rho2);
+      std::size_t i = static_cast<std::size_t>(y) * width_ + x;
+      double prnu = 1.0 + p_.prnu_rel * table(static_cast<std::uint32_t>(detail::hash_key(seed_, kStreamPrnu, i) >> 32));
+      gain_map_[i] = static_cast<float>(base * vig * std::max(prnu, 0.0));
+    }
+  });
+  if (p_.hot_pixel_frac > 0) {
+    for (std::size_t i = 0; i < gain_map_.size(); ++i)
+      if (detail::uniform01(detail::hash_key(seed_, kStreamHot, i)) < p_.hot_pixel_frac)
+        hot_.push_back(static_cast<std::uint32_t>(i));
+  }
+}
+
+double Sensor::electrons_per_s_per_radiance(int x, int y) const {
+  return gain_map_[static_cast<std::size_t>(y) * width_ + x];
+}
+
+double Sensor::dark_e_per_s(int x, int y) const {
+  auto i = static_cast<std::uint32_t>(static_cast<std::size_t>(y) * width_ + x);
+  return std::binary_search(hot_.begin(), hot_.end(), i) ? p_.hot_pixel_dark_e_per_s : p_.dark_current_e_per_s;
+}
+
+double Sensor::gain_dn_per_e(double gain_db) const { return p_.gain0_dn_per_e() * std::pow(10.0, gain_db / 20.0); }
+
+double Sensor::mean_electrons(double radiance, int x, int y, double exposure_s) const {
+  return radiance * static_cast<double>(electrons_per_s_per_radiance(x, y)) * exposure_s +
+         dark_e_per_s(x, y) * exposure_s;
+}
+
+double Sensor::raw_from_electrons(double electrons, double gain_db) const {
+  double range = p_.adc_max_dn() - p_.black_level_dn;
+  double e = std::min(electrons, p_.full_well_e);
+  double x = std::min(e * gain_dn_per_e(gain_db) / range, 1.0);
+  return std::clamp(p_.black_level_dn + response_(x) * range, 0.0, p_.adc_max_dn());
+}
+
+double Sensor::expected_raw(double radiance, int x, int y, double exposure_s, double gain_db) const {
+  return raw_from_electrons(mean_electrons(radiance, x, y, exposure_s), gain_db);
+}
+
+namespace {
+
+struct ChainConstants {
+  double t, dark_mu, read, read2, full_well, norm, range, black, adc_max;
+  int shift_left, shift_right;
+};
+
+// One pixel value through the whole chain.
+inline std::uint16_t chain(const ChainConstants& k, const ResponseCurve& response, bool linear, double mu,
+                           std::uint64_t bits, const detail::NormalTable& normal) {
+  float z = normal(static_cast<std::uint32_t>(bits >> 32));
+  double e;
+  if (mu >= 20.0) {
+    e = mu + std::sqrt(mu + k.read2) * z;
+  } else {
+    double u = static_cast<double>(bits & 0xFFFFFFFFull) * 0x1.0p-32;
+    e = detail::poisson_small(mu, u) + k.read * z;
+  }
+  e = std::min(e, k.full_well);
+  double x = std::min(e * k.norm, 1.0);
+  double y = linear ? x : response(x);
+  double v = std::clamp(k.black + y * k.range, 0.0, k.adc_max);
+  auto q = static_cast<std::uint32_t>(v + 0.5);
+  return static_cast<std::uint16_t>(k.shift_left ? (q << k.shift_left) : (q >> k.shift_right));
+}
+
+}  // namespace
+
+Image<std::uint16_t> Sensor::expose(const ImageF& radiance, const ExposureSettings& s, int threads) {
+  if (radiance.width() != width_ || radiance.height() != height_ || (radiance.channels() != 1 && radiance.channels() != 3))
+    throw DataError("sensor: radiance image is " + std::to_string(radiance.width()) + "x" +
+                    std::to_string(radiance.height()) + "x" + std::to_string(radiance.channels()) + ", expected " +
+                    std::to_string(width_) + "x" + std::to_string(height_) + " with 1 or 3 channels");
+  if (!(s.exposure_s >= 0) || !std::isfinite(s.exposure_s)) throw DataError("sensor: exposure must be >= 0 s");
+  int out_bits = s.output_bits == 0 ? p_.adc_bits : s.output_bits;
+  if (out_bits < 8 || out_bits > 16) throw DataError("sensor: output bits must be 8..16");
+  std::uint64_t frame = s.frame_index ? *s.frame_index : frames_.fetch_add(1);
+  if (s.frame_index) frames_.store(std::max(frames_.load(), *s.frame_index + 1));
+
+  ChainConstants k{};
+  k.t = s.exposure_s;
+  k.dark_mu = p_.dark_current_e_per_s * s.exposure_s;
+  k.read = p_.read_noise_e;
+  k.read2 = p_.read_noise_e * p_.read_noise_e;
+  k.full_well = p_.full_well_e;
+  k.range = p_.adc_max_dn() - p_.black_level_dn;
+  k.norm = gain_dn_per_e(s.gain_db) / k.range;
+  k.black = p_.black_level_dn;
+  k.adc_max = p_.adc_max_dn();
+  k.shift_left = std::max(0, out_bits - p_.adc_bits);
+  k.shift_right = std::max(0, p_.adc_bits - out_bits);
+
+  const int channels = radiance.channels();
+  Image<std::uint16_t> out(width_, height_, channels);
+  const std::uint64_t key = detail::hash_key(seed_, kStreamFrame, frame);
+  const auto& normal = detail::NormalTable::get();
+  const bool linear = response_.linear();
+  const float* in = radiance.data();
+  std::uint16_t* dst = out.data();
+  const float* gmap = gain_map_.data();
+  detail::parallel_rows(height_, threads, [&](int y) {
+    std::size_t p0 = static_cast<std::size_t>(y) * width_;
+    for (int x = 0; x < width_; ++x) {
+      std::size_t p = p0 + x;
+      double g = static_cast<double>(gmap[p]) * k.t;
+      for (int c = 0; c < channels; ++c) {
+        std::size_t i = p * channels + c;
+        double mu = std::max(static_cast<double>(in[i]), 0.0) * g + k.dark_mu;
+        dst[i] = chain(k, response_, linear, mu, detail::mix64(key + i), normal);
+      }
+    }
+  });
+  // Hot pixels: the same noise bits, a higher dark current.
+  double hot_mu = p_.hot_pixel_dark_e_per_s * s.exposure_s;
+  for (std::uint32_t p : hot_) {
+    double g = static_cast<double>(gmap[p]) * k.t;
+    for (int c = 0; c < channels; ++c) {
+      std::size_t i = static_cast<std::size_t>(p) * channels + c;
+      double mu = std::max(static_cast<double>(in[i]), 0.0) * g + hot_mu;
+      dst[i] = chain(k, response_, linear, mu, detail::mix64(key + i), normal);
+    }
+  }
+  return out;
+}
+
+}  // namespace paintlab::sim

@@ -1,0 +1,126 @@
+#include <gtest/gtest.h>
+
+#include "paintlab/sim/flakes.h"
+#include "paintlab/sim/world.h"
+#include "sim_test_util.h"
+#include "test_util.h"
+
+using namespace paintlab;
+
+TEST(Sparkle, CapProbabilityMatchesSampledFlakes) {
+  const double m = 0.15, delta = deg_to_rad(6.5);
+  sim::FlakeCapTable table(m, delta);
+  sim::FlakeField field(1.0, 16000.0, m, 9);  // ~200k flakes on a unit sphere
+  std::vector<sim::Flake> flakes;
+  field.for_each_visible(Vec3(0, 0, 1e6), [&](const sim::Flake& f) { flakes.push_back(f); });
+  sim::FlakeField all(1.0, 16000.0, m, 9);
+  ASSERT_GT(flakes.size(), 80000u);
+  for (double theta_h_deg : {0.0, 4.0, 9.0, 16.0, 25.0}) {
+    double th = deg_to_rad(theta_h_deg);
+    int hits = 0;
+    for (const auto& f : flakes) {
+      Vec3 h = frame_from_normal(f.position_dir) * spherical_to_vec(th, 0.7);
+      if (f.normal.dot(h) >= std::cos(delta)) ++hits;
+    }
+    double p = table(std::cos(th));
+    double n = static_cast<double>(flakes.size());
+    double sigma = std::sqrt(std::max(p * (1 - p), 1.0 / n) / n);
+    EXPECT_NEAR(hits / n, p, 4 * sigma + 1e-5) << "theta_h " << theta_h_deg << " deg";
+    EXPECT_NEAR(p, sim::FlakeCapTable::integrate(m, delta, th), 1e-4);
+  }
+  // Small-cap limit: P ~ delta^2 / m^2 at the pole.
+  EXPECT_NEAR(sim::FlakeCapTable::integrate(0.5, 0.01, 0.0), 0.01 * 0.01 / 0.25, 1e-5);
+}
+
+TEST(Sparkle, FlakeFieldIsAPoissonProcessOnTheSurface) {
+  sim::FlakeField field(0.04, 2.0e7, 0.15, 3);
+  double count = 0;
+  field.for_each_visible(Vec3(0, 0, 1e6), [&](const sim::Flake&) { count += 1; });
+  double expected = 2.0e7 * 2 * kPi * 0.04 * 0.04;  // a hemisphere
+  EXPECT_NEAR(count, expected, 5 * std::sqrt(expected));
+  // Stable: the same cell twice.
+  auto a = field.cell(10, 20), b = field.cell(10, 20);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].normal, b[i].normal);
+}
+
+namespace {
+
+struct SparkleRun {
+  double ratio;           // sum(sparkle) / sum(smooth) over the patch
+  double glint_frac;      // pixels at more than 3x the smooth value
+  double dark_frac;       // pixels below half the smooth value
+  std::size_t pixels;
+};
+
+SparkleRun sparkle_run(std::uint64_t seed, double angle_deg) {
+  // A 150 mm lens: the sphere fills the 320 x 240 image and the highlight covers
+  // thousands of pixels (the mean's spread over seeds is then about 0.3 %).
+  sim::SimConfig cfg = sim::test::small_config(150.0);
+  cfg.seed = seed;
+  sim::SimWorld world(cfg);
+  auto lobe = std::make_shared<sim::test::TestLobeBrdf>(0.0, 0.5, 0.3);
+  sim::Sparkle sp;
+  sp.density = 4.0;
+  sp.roughness = 0.3;
+  sp.lifetime_deg = 6.5;
+  sp.flake_part = lobe;
+  world.set_paint({lobe, sp});
+  sim::RenderOptions smooth_opt;
+  smooth_opt.sparkle = false;
+  ImageF smooth = world.render_at(angle_deg, true, smooth_opt);
+  ImageF sparkly = world.render_at(angle_deg, true);
+  ImageF cov = world.sphere_coverage();
+  double peak = 0;
+  for (float v : smooth.values()) peak = std::max(peak, static_cast<double>(v));
+  double s_sum = 0, f_sum = 0;
+  std::size_t n = 0, glints = 0, dark = 0;
+  for (std::size_t i = 0; i < smooth.size(); ++i) {
+    if (cov.data()[i] < 1.0f || smooth.data()[i] < 1e-3 * peak) continue;
+    s_sum += smooth.data()[i];
+    f_sum += sparkly.data()[i];
+    ++n;
+    if (sparkly.data()[i] > 3 * smooth.data()[i]) ++glints;
+    if (sparkly.data()[i] < 0.5 * smooth.data()[i]) ++dark;
+  }
+  return {f_sum / s_sum, static_cast<double>(glints) / n, static_cast<double>(dark) / n, n};
+}
+
+}  // namespace
+
+TEST(Sparkle, AveragesToTheBrdfOverALargePatch) {
+  for (std::uint64_t seed : {1ull, 2ull, 3ull}) {
+    SparkleRun r = sparkle_run(seed, 10.0);
+    std::printf("seed %llu: %zu pixels, sparkle/smooth = %.4f, glints %.2f %%, dark %.2f %%\n",
+                static_cast<unsigned long long>(seed), r.pixels, r.ratio, 100 * r.glint_frac, 100 * r.dark_frac);
+    EXPECT_GT(r.pixels, 50000u);
+    EXPECT_NEAR(r.ratio, 1.0, 0.02) << "seed " << seed;
+    EXPECT_GT(r.glint_frac, 0.01);  // it does sparkle
+    EXPECT_GT(r.dark_frac, 0.05);
+  }
+}
+
+TEST(Sparkle, PatternIsStableAndGlintsMoveWithTheLight) {
+  sim::SimConfig cfg = sim::test::small_config(50.0);
+  sim::SimWorld world(cfg);
+  auto lobe = std::make_shared<sim::test::TestLobeBrdf>(0.0, 0.5, 0.2);
+  sim::Sparkle sp;
+  sp.density = 2.0;
+  sp.flake_part = lobe;
+  world.set_paint({lobe, sp});
+  ImageF a = world.render_at(30.0, true), b = world.render_at(30.0, true), c = world.render_at(32.0, true);
+  EXPECT_EQ(a.values(), b.values());
+  sim::RenderOptions smooth;
+  smooth.sparkle = false;
+  ImageF sa = world.render_at(30.0, true, smooth), sc = world.render_at(32.0, true, smooth);
+  // The set of glinting pixels changes when the light moves by 2 deg.
+  int both = 0, only_a = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    bool ga = a.data()[i] > 3 * sa.data()[i] && sa.data()[i] > 0;
+    bool gc = c.data()[i] > 3 * sc.data()[i] && sc.data()[i] > 0;
+    both += ga && gc;
+    only_a += ga && !gc;
+  }
+  EXPECT_GT(only_a, 50);
+  EXPECT_GT(both, 10);  // flakes with a lifetime of 6.5 deg: many still glint
+}
