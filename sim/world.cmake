@@ -5,6 +5,7 @@ paintlab_add_library(sim
     ${CMAKE_CURRENT_LIST_DIR}/src/camera_model.cpp
     ${CMAKE_CURRENT_LIST_DIR}/src/config.cpp
     ${CMAKE_CURRENT_LIST_DIR}/src/flakes.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/src/paint.cpp
     ${CMAKE_CURRENT_LIST_DIR}/src/scenes.cpp
     ${CMAKE_CURRENT_LIST_DIR}/src/sensor.cpp
     ${CMAKE_CURRENT_LIST_DIR}/src/virtual_clock.cpp

@@ -23,5 +23,8 @@ void say(const std::string& line);
 
 void register_rig_commands(CLI::App& app);
 void register_paint_commands(CLI::App& app);
+void register_sim_commands(CLI::App& app);
+void register_sim_serve_command(CLI::App& app);
+void register_devices_commands(CLI::App& app);
 
 }  // namespace paintlab::app

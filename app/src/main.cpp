@@ -27,6 +27,9 @@ int main(int argc, char** argv) {
 
   app::register_rig_commands(app);
   app::register_paint_commands(app);
+  app::register_sim_commands(app);
+  app::register_sim_serve_command(app);
+  app::register_devices_commands(app);
 
   try {
     app.parse(argc, argv);
