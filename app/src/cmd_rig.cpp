@@ -3,6 +3,7 @@
 
 #include "cli.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/devices/device_config.h"
 
 namespace paintlab::app {
 
@@ -21,6 +22,7 @@ void register_rig_commands(CLI::App& app) {
   validate->add_flag("--json", args->json, "Print the parsed rig as JSON");
   on_run(validate, [args] {
     RigConfig r = RigConfig::load(args->file);
+    dev::validate_device_sections(r);  // the kind-specific keys of [devices.*]
     if (args->json) {
       say(r.to_json().dump(2));
       return 0;

@@ -461,4 +461,20 @@ Result<CameraProbe> probe_aravis_camera(const std::string& id_or_address) {
   return p;
 }
 
+std::vector<CameraProbe> discover_aravis_cameras() {
+  arv_update_device_list();
+  std::vector<CameraProbe> out;
+  for (unsigned i = 0, n = arv_get_n_devices(); i < n; ++i) {
+    auto str = [](const char* s) { return std::string(s ? s : ""); };
+    CameraProbe p;
+    p.device_id = str(arv_get_device_id(i));
+    p.vendor = str(arv_get_device_vendor(i));
+    p.model = str(arv_get_device_model(i));
+    p.serial = str(arv_get_device_serial_nbr(i));
+    p.address = str(arv_get_device_address(i));
+    out.push_back(p);
+  }
+  return out;
+}
+
 }  // namespace paintlab::dev

@@ -266,7 +266,7 @@ void GigeCamera::start() {
   arv_fake_camera_write_register(fake, kRegWidth, w);
   arv_fake_camera_write_register(fake, kRegHeight, h);
   arv_fake_camera_write_register(fake, kRegPixelFormat, pfnc(options_.format));
-  arv_fake_camera_write_register(fake, kRegBlackLevel, 0);
+  arv_fake_camera_write_register(fake, kRegBlackLevel, static_cast<std::uint32_t>(std::lround(options_.black_level)));
   // Bootstrap device information (the fake's defaults say "Aravis", "Fake").
   auto put_string = [&](std::uint32_t address, std::size_t length, const std::string& text) {
     std::vector<char> b(length, '\0');

@@ -117,9 +117,22 @@ std::string TurntableServer::start_rtu(int baud) {
   posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
   const char* argv[] = {"socat", "-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0", nullptr};
+  // socat must not inherit a blocked SIGTERM (`sim serve` blocks it to sigwait for it).
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  sigset_t none, defaults;
+  sigemptyset(&none);
+  sigemptyset(&defaults);
+  sigaddset(&defaults, SIGINT);
+  sigaddset(&defaults, SIGTERM);
+  sigaddset(&defaults, SIGPIPE);
+  posix_spawnattr_setsigmask(&attr, &none);
+  posix_spawnattr_setsigdefault(&attr, &defaults);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
   pid_t pid = -1;
-  int rc = posix_spawnp(&pid, "socat", &fa, nullptr, const_cast<char* const*>(argv), environ);
+  int rc = posix_spawnp(&pid, "socat", &fa, &attr, const_cast<char* const*>(argv), environ);
   posix_spawn_file_actions_destroy(&fa);
+  posix_spawnattr_destroy(&attr);
   close(err_pipe[1]);
   if (rc != 0) {
     close(err_pipe[0]);
@@ -183,7 +196,15 @@ void TurntableServer::stop() {
   state_->rtu = nullptr;
   if (state_->socat_pid > 0) {
     kill(state_->socat_pid, SIGTERM);
-    waitpid(state_->socat_pid, nullptr, 0);
+    bool gone = false;
+    for (int i = 0; i < 200 && !gone; ++i) {
+      gone = waitpid(state_->socat_pid, nullptr, WNOHANG) == state_->socat_pid;
+      if (!gone) usleep(10000);
+    }
+    if (!gone) {
+      kill(state_->socat_pid, SIGKILL);
+      waitpid(state_->socat_pid, nullptr, 0);
+    }
   }
   state_->socat_pid = -1;
   if (state_->socat_err_fd >= 0) close(state_->socat_err_fd);

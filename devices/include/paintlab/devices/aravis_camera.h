@@ -11,6 +11,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "paintlab/core/config.h"
 #include "paintlab/devices/camera.h"
@@ -98,5 +99,8 @@ struct CameraProbe {
   std::string vendor, model, serial, device_id, address;
 };
 Result<CameraProbe> probe_aravis_camera(const std::string& id_or_address);
+// Aravis' discovery: broadcasts on every network interface and scans USB. Only on explicit
+// request (`paintlab devices --discover`), never in tests.
+std::vector<CameraProbe> discover_aravis_cameras();
 
 }  // namespace paintlab::dev

@@ -45,6 +45,7 @@ struct GigeCameraOptions {
   std::string serial = "PAINTLAB-SIM-1";
   double readout_s = 0.010;  // sensor readout time per frame
   dev::PixelFormat format = dev::PixelFormat::Mono16;
+  double black_level = 0.0;  // initial BlackLevel (DN)
 };
 
 // Faults, switched on per test.

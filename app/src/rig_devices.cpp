@@ -1,0 +1,95 @@
+#include "rig_devices.h"
+
+#include "paintlab/core/error.h"
+#include "paintlab/devices/aravis_camera.h"
+#include "paintlab/devices/device_config.h"
+#include "paintlab/devices/gpiod_light.h"
+#include "paintlab/devices/modbus_turntable.h"
+#include "paintlab/sim/peers/sim_rig.h"
+
+namespace paintlab::app {
+
+RigDevices::RigDevices() = default;
+RigDevices::RigDevices(RigDevices&&) noexcept = default;
+RigDevices& RigDevices::operator=(RigDevices&&) noexcept = default;
+RigDevices::~RigDevices() {
+  camera.reset();
+  light.reset();
+  turntable.reset();
+  sim.reset();
+}
+
+namespace {
+
+// SimRig owns its SimLight (the camera's frames read it); the rig's Light forwards to it.
+class ForwardingLight final : public dev::Light {
+ public:
+  explicit ForwardingLight(dev::Light& l) : l_(l) {}
+  std::string id() const override { return l_.id(); }
+  Result<void> on(double level) override { return l_.on(level); }
+  Result<void> off() override { return l_.off(); }
+  Result<bool> is_on() override { return l_.is_on(); }
+  bool has_level() const override { return l_.has_level(); }
+
+ private:
+  dev::Light& l_;
+};
+
+}  // namespace
+
+RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& options) {
+  // Check every section before anything starts.
+  dev::validate_device_sections(rig);
+  RigDevices d;
+  const bool sim_table = options.turntable && rig.turntable.kind == "sim";
+  const bool sim_light = options.light && rig.light.kind == "sim";
+  const bool sim_camera = options.camera && rig.camera.kind == "sim";
+  const bool all_sim = (!options.turntable || rig.turntable.kind == "sim") &&
+                       (!options.light || rig.light.kind == "sim") && (!options.camera || rig.camera.kind == "sim");
+  if (sim_table || sim_light || sim_camera) {
+    sim::SimRigOptions so;
+    so.turntable = sim_table;
+    if (sim_table) {
+      bool rtu = dev::turntable_config(rig.turntable).transport == dev::ModbusTurntableConfig::Transport::Rtu;
+      so.modbus_rtu = rtu;
+      so.modbus_tcp = !rtu;
+    }
+    so.light = sim_light;
+    so.camera = sim_camera;
+    // A mix of real and simulated devices runs on the wall clock.
+    so.clock = all_sim ? nullptr : &system_clock();
+    d.sim = std::make_unique<sim::SimRig>(rig, so);
+    d.clock = &d.sim->clock();
+  } else {
+    d.clock = &system_clock();
+  }
+
+  if (options.turntable) {
+    dev::ModbusTurntableConfig tc = dev::turntable_config(rig.turntable);
+    if (rig.turntable.kind == "sim") {
+      if (tc.transport == dev::ModbusTurntableConfig::Transport::Tcp) {
+        tc.host = "127.0.0.1";
+        tc.port = d.sim->modbus_port();
+      } else {
+        tc.serial_device = d.sim->modbus_rtu_path();
+      }
+    }
+    auto table = std::make_unique<dev::ModbusTurntable>(tc, *d.clock);
+    if (auto r = table->connect(); !r) throw r.error();
+    d.turntable = std::move(table);
+  }
+  if (options.light) {
+    if (rig.light.kind == "sim")
+      d.light = std::make_unique<ForwardingLight>(*d.sim->light());
+    else
+      d.light = std::make_unique<dev::GpiodLight>(dev::gpiod_config(rig.light));
+  }
+  if (options.camera) {
+    auto cam = dev::AravisCamera::open(dev::camera_config(rig.camera, rig.geometry));
+    if (!cam) throw cam.error();
+    d.camera = std::move(*cam);
+  }
+  return d;
+}
+
+}  // namespace paintlab::app

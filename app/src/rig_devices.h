@@ -1,0 +1,53 @@
+#pragma once
+// The one factory that maps rig.toml device kinds to concrete drivers (STYLE.md "Devices").
+// Real kinds get their drivers (modbus-tcp / modbus-rtu: ModbusTurntable, gpiod: GpiodLight,
+// aravis: AravisCamera). Kind "sim" starts the simulated peers in-process (sim::SimRig) and
+// connects the REAL drivers to them: the turntable over Modbus TCP (or RTU on a pty) and
+// the camera over GigE Vision, both on 127.0.0.1; the LED is a SimLight.
+//
+//   RigConfig rig = RigConfig::load("rig.toml");
+//   RigDevices d = open_rig_devices(rig);
+//   d.turntable->move_to(30); d.turntable->wait_settled(10);
+//   d.light->on(); d.camera->set_exposure(0.01); auto frame = d.camera->capture(5);
+//   d.clock->now_s();   // the clock the rig runs on (sim: the world's virtual clock)
+#include <memory>
+
+#include "paintlab/core/clock.h"
+#include "paintlab/core/rig.h"
+#include "paintlab/devices/camera.h"
+#include "paintlab/devices/light.h"
+#include "paintlab/devices/turntable.h"
+
+namespace paintlab::sim {
+class SimRig;
+}
+
+namespace paintlab::app {
+
+struct RigDevices {
+  // Declared first so it is destroyed last: the drivers disconnect before the peers stop.
+  std::unique_ptr<sim::SimRig> sim;  // the simulated peers and world (when a kind is "sim")
+  std::unique_ptr<dev::Turntable> turntable;
+  std::unique_ptr<dev::Light> light;
+  std::unique_ptr<dev::Camera> camera;
+  // The clock every driver waits on: the world's virtual clock when all devices are
+  // simulated, else the wall clock. Never null after open_rig_devices.
+  Clock* clock = nullptr;
+
+  RigDevices();
+  RigDevices(RigDevices&&) noexcept;
+  RigDevices& operator=(RigDevices&&) noexcept;
+  ~RigDevices();
+};
+
+struct OpenDevicesOptions {
+  bool turntable = true;
+  bool light = true;
+  bool camera = true;
+};
+
+// Opens the rig's devices. Throws ConfigError for bad device sections and DeviceError when a
+// device cannot be opened (the message names the device).
+RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& options = {});
+
+}  // namespace paintlab::app

@@ -1,0 +1,107 @@
+#include "paintlab/sim/peers/sim_rig.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+
+#include "paintlab/devices/device_config.h"
+
+namespace paintlab::sim {
+
+// The last radiance image: a bracket at one table angle renders once.
+struct SimRig::Cache {
+  std::mutex mutex;
+  bool valid = false;
+  double angle_deg = 0.0;
+  bool led_on = false;
+  const void* paint = nullptr;
+  ImageF radiance;
+};
+
+SimRig::SimRig(const RigConfig& rig, SimRigOptions options) : cache_(std::make_shared<Cache>()) {
+  world_ = std::make_unique<SimWorld>(SimConfig::from_rig(rig));
+  clock_ = options.clock ? options.clock : &world_->clock();
+  if (options.turntable) {
+    dev::ModbusTurntableConfig tc = dev::turntable_config(rig.turntable);
+    TurntableServerOptions o;
+    o.map = tc.map;
+    o.scale = tc.scale;
+    o.wrap = tc.wrap;
+    o.unit_id = tc.unit_id;
+    o.default_accel_deg_s2 = tc.accel_deg_s2;
+    turntable_ = std::make_unique<TurntableServer>(o, *clock_);
+    if (options.modbus_tcp) modbus_port_ = turntable_->start_tcp(options.modbus_port);
+    if (options.modbus_rtu) rtu_path_ = turntable_->start_rtu();
+  }
+  if (options.light) {
+    SimLightOptions lo;
+    if (rig.light.kind == "sim") lo.max_on_s = dev::sim_light_config(rig.light).max_on_s;
+    SimWorld* w = world_.get();
+    light_ = std::make_unique<SimLight>(lo, *clock_, [w](bool on) { w->set_led_on(on); });
+    world_->set_led_on(false);
+  }
+  if (options.camera) {
+    dev::AravisCameraConfig cc = dev::camera_config(rig.camera, rig.geometry);
+    GigeCameraOptions go;
+    go.width = world_->camera().width();
+    go.height = world_->camera().height();
+    go.readout_s = world_->config().sensor.readout_s;
+    go.format = cc.pixel_format;
+    go.black_level = world_->config().sensor.black_level_dn;
+    camera_ = std::make_unique<GigeCamera>(go, *clock_, world_source());
+    camera_->start();
+  }
+}
+
+SimRig::~SimRig() {
+  // The camera first: its fill callback uses the world, the table and the light.
+  camera_.reset();
+  turntable_.reset();
+  light_.reset();
+}
+
+FrameSource SimRig::world_source() {
+  SimWorld* w = world_.get();
+  TurntableServer* table = turntable_.get();
+  SimLight* light = light_.get();
+  std::shared_ptr<Cache> cache = cache_;
+  return [w, table, light, cache](const FrameRequest& r, std::uint16_t* out) {
+    if (table) w->set_table_angle_deg(table->angle_deg());
+    if (light) w->set_led_on(light->emitting());
+    const double angle = w->table_angle_deg();
+    const bool led = w->led_on();
+    const void* paint = w->paint().brdf.get();
+    ImageF radiance;
+    {
+      std::lock_guard lock(cache->mutex);
+      if (!cache->valid || cache->angle_deg != angle || cache->led_on != led || cache->paint != paint) {
+        cache->radiance = w->render_at(angle, led);
+        cache->angle_deg = angle;
+        cache->led_on = led;
+        cache->paint = paint;
+        cache->valid = true;
+      }
+      radiance = cache->radiance;
+    }
+    ExposureSettings es;
+    es.exposure_s = r.exposure_s;
+    es.gain_db = r.gain_db;
+    const int bits = dev::bit_depth(r.format);
+    es.output_bits = bits;
+    Image<std::uint16_t> raw = w->sensor().expose(radiance, es);
+    // The camera's BlackLevel moves the sensor's black level (in the output's units).
+    const auto& sp = w->config().sensor;
+    const double scale = std::ldexp(1.0, bits - sp.adc_bits);
+    const double offset = (r.black_level - sp.black_level_dn) * scale;
+    const double max = std::ldexp(1.0, bits) - 1.0;
+    const int cw = std::min(r.width, raw.width()), ch = std::min(r.height, raw.height());
+    std::fill(out, out + static_cast<std::size_t>(r.width) * r.height, std::uint16_t{0});
+    for (int y = 0; y < ch; ++y)
+      for (int x = 0; x < cw; ++x) {
+        double v = raw.at(x, y) + offset;
+        out[static_cast<std::size_t>(y) * r.width + x] = static_cast<std::uint16_t>(std::clamp(std::round(v), 0.0, max));
+      }
+  };
+}
+
+}  // namespace paintlab::sim
