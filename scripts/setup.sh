@@ -19,7 +19,7 @@ packages=(
   # OpenCV's sample chessboard photos
   # (arv-fake-gv-camera-0.8 is in aravis-tools, arv-tool-0.8 in aravis-tools-cli; pymodbus.server
   # imports serial_asyncio)
-  aravis-tools aravis-tools-cli socat umockdev python3-pymodbus python3-serial python3-serial-asyncio
+  aravis-tools aravis-tools-cli socat umockdev libumockdev-dev python3-pymodbus python3-serial python3-serial-asyncio
   opencv-doc
 )
 

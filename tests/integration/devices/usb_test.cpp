@@ -121,5 +121,23 @@ TEST_F(UsbDiscovery, EmptyBusListsNothing) {
   EXPECT_EQ(run_probe(file, true), "");
 }
 
+TEST_F(UsbDiscovery, HotPlugReportsArrivalAndRemoval) {
+#ifndef PAINTLAB_USB_HOTPLUG_PROBE
+  GTEST_SKIP() << "libumockdev-dev not installed: no testbed to add devices at run time";
+#else
+  test::TempDir dir;
+  std::string file = (dir / "cable.umockdev").string();
+  Bytes ftdi = cat({device_descriptor(0x0200, 0, 0, 0, 0x0403, 0x6001),
+                    configuration(1, cat({interface(0, 2, 0xFF, 0xFF, 0xFF), bulk_endpoint(0x81), bulk_endpoint(0x02)}))});
+  test::write_text(file, umockdev_device(1, 7, 0x0403, 0x6001, ftdi));
+  test::Process p({"umockdev-wrapper", PAINTLAB_USB_HOTPLUG_PROBE, file, "/sys/devices/pci0000:00/0000:00:14.0/usb1/1-7"});
+  std::string out;
+  while (auto line = p.read_line(20.0)) out += *line + "\n";
+  EXPECT_EQ(p.wait_exit(10.0), 0) << out;
+  if (out.find("supported 0") != std::string::npos) GTEST_SKIP() << "libusb without hot-plug support";
+  EXPECT_THAT(out, ::testing::HasSubstr("arrived usb-serial 0403:6001\nleft usb-serial 0403:6001\n"));
+#endif
+}
+
 }  // namespace
 }  // namespace paintlab
