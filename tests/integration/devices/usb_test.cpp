@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <fmt/format.h>
 #include <string>
 #include <vector>
@@ -83,7 +84,18 @@ std::string rig_usb() {
          umockdev_device(2, 4, 0x2676, 0xBA02, u3v) + umockdev_device(1, 5, 0x046D, 0xC31C, kbd);
 }
 
+// umockdev preloads its library; an ASan build must not insist on coming first.
+void allow_preload_under_asan() {
+  const char* cur = std::getenv("ASAN_OPTIONS");
+  std::string opts = cur ? cur : "";
+  if (opts.find("verify_asan_link_order") == std::string::npos) {
+    opts += std::string(opts.empty() ? "" : ":") + "verify_asan_link_order=0";
+    setenv("ASAN_OPTIONS", opts.c_str(), 1);
+  }
+}
+
 std::string run_probe(const std::string& file, bool all) {
+  allow_preload_under_asan();
   std::vector<std::string> argv = {"umockdev-run", "-d", file, "--", PAINTLAB_USB_PROBE};
   if (all) argv.push_back("--all");
   test::Process p(argv);
@@ -130,6 +142,7 @@ TEST_F(UsbDiscovery, HotPlugReportsArrivalAndRemoval) {
   Bytes ftdi = cat({device_descriptor(0x0200, 0, 0, 0, 0x0403, 0x6001),
                     configuration(1, cat({interface(0, 2, 0xFF, 0xFF, 0xFF), bulk_endpoint(0x81), bulk_endpoint(0x02)}))});
   test::write_text(file, umockdev_device(1, 7, 0x0403, 0x6001, ftdi));
+  allow_preload_under_asan();
   test::Process p({"umockdev-wrapper", PAINTLAB_USB_HOTPLUG_PROBE, file, "/sys/devices/pci0000:00/0000:00:14.0/usb1/1-7"});
   std::string out;
   while (auto line = p.read_line(20.0)) out += *line + "\n";
