@@ -1,0 +1,98 @@
+#pragma once
+// Fit of the multi-lobe Cook-Torrance model (Günther et al. 2005, eq. 1; models.md) to a
+// binned table with Ceres (docs/fitting.md "Cook-Torrance fit"):
+//  - residuals: whitened log residuals (log f(mean coords) - y_bc) / sigma_bc of fit_data.h,
+//    one residual block per chunk of bins (3 residuals per bin); a Huber loss on them;
+//  - parameters: per channel (kd_c, ks_1c .. ks_Nc) >= 0, shared (m_l, r_l) with m in
+//    [m_min, 1] and r in [0, 1] (Ceres bounds, no penalty terms);
+//  - starts: a grid over the lobe roughnesses (m combinations from a fixed log-spaced
+//    list, r = 0.5) with kd and ks from a non-negative linear least-squares fit of the
+//    relative residuals, the best few grid points plus seeded random perturbations of the
+//    best one; every start runs on a deterministic subsample, the best is polished on all
+//    bins;
+//  - lobes are ordered broadest first (largest m first);
+//  - standard deviations from ceres::Covariance at the solution (parameters at a bound are
+//    held fixed and get 0), scaled by sqrt(max(1, chi2 / dof)).
+// The lobe is brdf::ct_lobe, the same template the simulator evaluates.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "paintlab/brdf/paint.h"
+#include "paintlab/core/json.h"
+#include "paintlab/fitting/fit_data.h"
+
+namespace paintlab::fit {
+
+struct CtFitOptions {
+  int lobes = 3;                  // 1..3
+  int grid_starts = 4;            // best grid points started from, >= 1
+  int random_starts = 2;          // seeded perturbations of the best grid point, >= 0
+  std::uint64_t seed = 1;         // of the random starts
+  int max_iterations = 100;       // of the final solve (starts get a third), >= 1
+  std::size_t start_bins = 15000; // subsample size for the starts (all bins if fewer)
+  double huber_scale = 2.0;       // in sigmas; 0 = plain least squares
+  double m_min = 1e-3;            // lower bound of m
+  int threads = 0;                // 0 = all cores
+  bool covariance = true;
+  int chunk_bins = 256;           // bins per residual block
+  FitDataOptions data;
+  void check() const;             // DataError naming the first violated rule
+};
+
+// One start of the multi-start search.
+struct StartReport {
+  std::string origin;             // "grid m=0.25,0.09,0.018" or "seed 3"
+  double initial_cost = 0;
+  double final_cost = 0;
+  int iterations = 0;
+  bool converged = false;
+  Json to_json() const;
+};
+
+// What every fit reports (fit.json "summary").
+struct FitSummary {
+  bool converged = false;          // Ceres terminated with CONVERGENCE
+  std::string termination;         // Ceres' termination type and message
+  int iterations = 0;              // of the final solve
+  double initial_cost = 0;
+  double final_cost = 0;           // Ceres cost 1/2 sum rho(r^2)
+  std::size_t residual_blocks = 0;
+  std::size_t residuals = 0;
+  std::size_t parameters = 0;
+  double chi2_per_dof = 0;         // 2 cost / (residuals - parameters)
+  double time_s = 0;
+  std::uint64_t seed = 0;
+  std::vector<StartReport> starts;
+  bool covariance_ok = false;
+  std::string covariance_message;
+  Json to_json() const;
+};
+
+// Standard deviations in the shape of the parameters.
+struct CookTorranceStddev {
+  brdf::Rgb kd = brdf::Rgb::Zero();
+  std::vector<brdf::CtLobe> lobes;  // ks, m, r hold standard deviations
+  Json to_json() const;             // {"kd": [..], "lobes": [{"ks": [..], "m": .., "r": ..}]}
+};
+
+struct CookTorranceFit {
+  brdf::CookTorranceParams params;  // lobes broadest first
+  CookTorranceStddev stddev;
+  ResidualReport residual;
+  FitSummary summary;
+  // The "fit" object of DESIGN.md plus standard deviations and the summary:
+  // {"name", "model": "cook-torrance", "kd", "lobes", "residual", "stddev", "summary"}.
+  // brdf::paint_from_json reads it back as a paint.
+  Json to_json(const std::string& name) const;
+};
+
+// Fits `options.lobes` lobes. Throws DataError when the data cannot be fitted (no usable
+// bins, fewer residuals than parameters). A fit that does not converge is returned with
+// summary.converged = false (callers decide).
+CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& options = {});
+
+// The model at every fit bin (3 values per bin, at the mean coordinates).
+std::vector<double> evaluate_cook_torrance(const FitData& data, const brdf::CookTorranceParams& params);
+
+}  // namespace paintlab::fit

@@ -1,0 +1,89 @@
+#pragma once
+// The measured bins of a table prepared for a fit, and the residual statistics every fit
+// reports (docs/fitting.md "Fits").
+//
+// A fit compares log values. Per measured bin b and channel c:
+//   y_bc     = log(v_bc) + s2_bc / 2      (delta-method correction: E[log mean] is
+//                                          log(truth) - var/(2 v^2) to second order)
+//   s2_bc    = rho_bc / n_b               variance of log(v_bc) from the samples
+//   rho_bc   = relative per-sample variance var/v^2 POOLED over the bin's 3x3x3
+//              neighbourhood (degrees-of-freedom weighted), so a bin is not weighted by its
+//              own luck (with sparkle, a bin that drew few glints has a low mean AND a low
+//              variance)
+//   sigma_bc = sqrt(s2_bc + floor^2)      floor: relative model/calibration error
+// The per-sample variance is the samples' own noise variance when binning had it
+// (BinnedTable::noise_variance: extraction's estimate of pixel noise plus sparkle), else
+// the spread of the bin's samples, which also holds the BRDF's variation across the bin
+// and so overstates the noise near the peak.
+// Tables without sample statistics (a MERL file) get sigma = floor everywhere and no
+// correction. Only Measured bins are used: filled bins never count as measurements.
+// Models are evaluated at the bins' mean coordinates (models.md: centres bias narrow lobes).
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "paintlab/brdf/cook_torrance.h"
+#include "paintlab/brdf/merl.h"
+#include "paintlab/core/json.h"
+#include "paintlab/fitting/coverage.h"
+
+namespace paintlab::fit {
+
+struct FitDataOptions {
+  double relative_floor = 0.01;  // floor of sigma (relative error), > 0
+  bool delta_correction = true;
+  std::uint32_t min_count = 1;   // measured bins with fewer samples are left out (tables with counts)
+  void check() const;
+};
+
+struct FitBin {
+  std::uint32_t bin = 0;
+  Region region = Region::Diffuse;
+  Eigen::Vector3d coords = Eigen::Vector3d::Zero();  // mean (theta_h, theta_d, phi_d)
+  brdf::LobeGeometry geometry;                        // cosines at the mean coordinates
+  std::array<double, 3> value{};                      // v_bc (1/sr)
+  std::array<double, 3> target{};                     // y_bc
+  std::array<double, 3> inv_sigma{};                  // 1 / sigma_bc; 0 = channel not used (v <= 0)
+  std::array<double, 3> noise_sigma{};                // sqrt(s2_bc): the log noise of the value alone
+};
+
+enum class NoiseSource { None, SampleSpread, SampleNoise };
+const char* to_string(NoiseSource s);  // "none", "sample-spread", "sample-noise"
+
+struct FitData {
+  std::vector<FitBin> bins;
+  std::size_t residuals = 0;     // used (bin, channel) pairs
+  bool has_statistics = false;   // counts and variances were available
+  NoiseSource noise_source = NoiseSource::None;
+  FitDataOptions options;
+};
+
+// Throws DataError when the table has no usable measured bins ("the table has no
+// measured bins with positive values: nothing to fit"). `noise_variance` (3 per bin, the
+// mean per-sample noise variance; may be null or empty) replaces the sample spread.
+FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& options = {},
+                         const std::vector<float>* noise_variance = nullptr);
+
+// Residual statistics of model predictions `model` (3 per fit bin, 1/sr) against the data:
+// unweighted log-RMS of log(model) - log(value) over used (bin, channel) pairs, overall
+// and per region, and the noise floor (RMS of noise_sigma: what a perfect model would leave).
+struct RegionResidual {
+  std::size_t bins = 0;
+  std::size_t residuals = 0;
+  double log_rms = 0;
+  double noise_floor = std::numeric_limits<double>::quiet_NaN();  // NaN without statistics
+  Json to_json() const;
+};
+struct ResidualReport {
+  NoiseSource noise_source = NoiseSource::None;  // what the noise floor comes from
+  RegionResidual total;
+  std::array<RegionResidual, kRegionCount> regions;
+  // {"log_rms", "bins_used", "residuals", "noise_floor_log_rms", "noise_source", "regions": {...}}
+  Json to_json() const;
+};
+ResidualReport residual_report(const FitData& data, const std::vector<double>& model);
+
+}  // namespace paintlab::fit

@@ -1,0 +1,649 @@
+#include "paintlab/fitting/ct_fit.h"
+
+#include <ceres/ceres.h>
+#include <ceres/jet.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <ctime>
+#include <cmath>
+#include <fmt/format.h>
+#include <functional>
+#include <memory>
+#include <numbers>
+#include <random>
+#include <thread>
+
+#include "fit_util.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/log.h"
+
+namespace paintlab::fit {
+
+namespace {
+
+constexpr double kInvPi = 1.0 / std::numbers::pi;
+constexpr int kMaxLobes = 3;
+constexpr double kMinModelValue = 1e-30;  // 1/sr
+
+// Parameters in the layout of the Ceres problem: per channel (kd_c, ks_1c .. ks_Nc), and
+// (m_1, r_1, .., m_N, r_N).
+struct CtParams {
+  int lobes = 0;
+  std::array<std::array<double, kMaxLobes + 1>, 3> lin{};
+  std::array<double, 2 * kMaxLobes> nl{};
+
+  brdf::CookTorranceParams to_params() const {
+    brdf::CookTorranceParams p;
+    for (int c = 0; c < 3; ++c) p.kd[c] = lin[c][0];
+    for (int l = 0; l < lobes; ++l) {
+      brdf::CtLobe lobe;
+      for (int c = 0; c < 3; ++c) lobe.ks[c] = lin[c][1 + l];
+      lobe.m = nl[2 * l];
+      lobe.r = nl[2 * l + 1];
+      p.lobes.push_back(lobe);
+    }
+    return p;
+  }
+};
+
+// One residual block: the whitened log residuals of a chunk of bins, 3 per bin (R, G, B:
+// row 3q + c). Parameter blocks: lin[0], lin[1], lin[2] (N + 1 each) and nl (2N). The
+// lobes are evaluated once per bin for all channels: with a 2-dimensional Jet in (m, r)
+// of brdf::ct_lobe when Ceres asks for Jacobians, in plain doubles otherwise.
+class CtChunkCost final : public ceres::CostFunction {
+ public:
+  CtChunkCost(std::vector<const FitBin*> bins, int lobes) : bins_(std::move(bins)), n_(lobes) {
+    set_num_residuals(3 * static_cast<int>(bins_.size()));
+    for (int c = 0; c < 3; ++c) mutable_parameter_block_sizes()->push_back(n_ + 1);
+    mutable_parameter_block_sizes()->push_back(2 * n_);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    using Jet = ceres::Jet<double, 2>;
+    const double* nl = parameters[3];
+    const int nlin = n_ + 1, nnl = 2 * n_;
+    const bool want_jacobian = jacobians != nullptr;
+    for (std::size_t q = 0; q < bins_.size(); ++q) {
+      const FitBin& b = *bins_[q];
+      std::array<double, kMaxLobes> value{}, dm{}, dr{};
+      for (int l = 0; l < n_; ++l) {
+        if (want_jacobian) {
+          const Jet lobe = brdf::ct_lobe(Jet(nl[2 * l], 0), Jet(nl[2 * l + 1], 1), b.geometry);
+          value[l] = lobe.a;
+          dm[l] = lobe.v[0];
+          dr[l] = lobe.v[1];
+        } else {
+          value[l] = brdf::ct_lobe(nl[2 * l], nl[2 * l + 1], b.geometry);
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        const std::size_t row = 3 * q + static_cast<std::size_t>(c);
+        const double* lin = parameters[c];
+        const double w = b.inv_sigma[c];
+        double f = 0.0;
+        if (w != 0.0) {
+          f = lin[0] * kInvPi;
+          for (int l = 0; l < n_; ++l) f += lin[1 + l] * value[l];
+          // A model value this small (all of a channel's terms at their bound or underflowed)
+          // is no BRDF: the step is rejected, and 1/f cannot overflow the Jacobian.
+          if (!(f > kMinModelValue) || !std::isfinite(f)) return false;
+          residuals[row] = (std::log(f) - b.target[c]) * w;
+        } else {
+          residuals[row] = 0.0;
+        }
+        if (!want_jacobian) continue;
+        const double g = w != 0.0 ? w / f : 0.0;
+        for (int cb = 0; cb < 3; ++cb) {
+          if (!jacobians[cb]) continue;
+          double* jl = jacobians[cb] + row * nlin;
+          if (cb != c || g == 0.0) {
+            std::fill(jl, jl + nlin, 0.0);
+            continue;
+          }
+          jl[0] = kInvPi * g;
+          for (int l = 0; l < n_; ++l) jl[1 + l] = value[l] * g;
+        }
+        if (jacobians[3]) {
+          double* jn = jacobians[3] + row * nnl;
+          for (int l = 0; l < n_; ++l) {
+            jn[2 * l] = lin[1 + l] * dm[l] * g;
+            jn[2 * l + 1] = lin[1 + l] * dr[l] * g;
+          }
+        }
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::vector<const FitBin*> bins_;
+  int n_;
+};
+
+// Subsample for the starts: a deterministic hash of the bin index, peak bins four times
+// as likely (they alone constrain the narrow lobe).
+std::vector<const FitBin*> subsample(const FitData& data, std::size_t target) {
+  std::vector<const FitBin*> all;
+  all.reserve(data.bins.size());
+  for (const FitBin& b : data.bins) all.push_back(&b);
+  if (all.size() <= target) return all;
+  std::size_t peak = 0;
+  for (const FitBin& b : data.bins) peak += b.region == Region::Peak;
+  const double p_other = static_cast<double>(target) / (static_cast<double>(all.size() - peak) + 4.0 * peak);
+  const double p_peak = std::min(1.0, 4.0 * p_other);
+  std::vector<const FitBin*> out;
+  for (const FitBin* b : all) {
+    const double u = static_cast<double>(splitmix64(b->bin) >> 11) * 0x1.0p-53;
+    if (u < (b->region == Region::Peak ? p_peak : p_other)) out.push_back(b);
+  }
+  return out;
+}
+
+struct Solved {
+  CtParams params;
+  ceres::Solver::Summary summary;
+  std::size_t residual_blocks = 0;
+};
+
+struct ProblemHolder {
+  ceres::Problem problem;
+  std::size_t residual_blocks = 0;
+  std::vector<ceres::ResidualBlockId> ids;
+};
+
+void build_problem(ProblemHolder& h, const std::vector<const FitBin*>& bins, CtParams& p, const CtFitOptions& o) {
+  ceres::Problem& problem = h.problem;
+  const int n = p.lobes;
+  for (int c = 0; c < 3; ++c) problem.AddParameterBlock(p.lin[c].data(), n + 1);
+  problem.AddParameterBlock(p.nl.data(), 2 * n);
+  const std::size_t chunk = static_cast<std::size_t>(o.chunk_bins);
+  for (std::size_t s = 0; s < bins.size(); s += chunk) {
+    const std::size_t e = std::min(bins.size(), s + chunk);
+    std::vector<const FitBin*> part(bins.begin() + static_cast<std::ptrdiff_t>(s),
+                                    bins.begin() + static_cast<std::ptrdiff_t>(e));
+    ceres::LossFunction* loss = o.huber_scale > 0.0 ? new ceres::HuberLoss(o.huber_scale) : nullptr;
+    h.ids.push_back(problem.AddResidualBlock(
+        new CtChunkCost(std::move(part), n), loss,
+        std::vector<double*>{p.lin[0].data(), p.lin[1].data(), p.lin[2].data(), p.nl.data()}));
+    ++h.residual_blocks;
+  }
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k <= n; ++k) problem.SetParameterLowerBound(p.lin[c].data(), k, 0.0);
+  for (int l = 0; l < n; ++l) {
+    problem.SetParameterLowerBound(p.nl.data(), 2 * l, o.m_min);
+    problem.SetParameterUpperBound(p.nl.data(), 2 * l, 1.0);
+    problem.SetParameterLowerBound(p.nl.data(), 2 * l + 1, 0.0);
+    problem.SetParameterUpperBound(p.nl.data(), 2 * l + 1, 1.0);
+  }
+}
+
+int thread_count(int requested) {
+  return requested > 0 ? requested : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+Solved solve(const std::vector<const FitBin*>& bins, CtParams start, const CtFitOptions& o, int max_iterations) {
+  Solved out;
+  out.params = start;
+  ProblemHolder h;
+  build_problem(h, bins, out.params, o);
+  ceres::Solver::Options so;
+  so.minimizer_type = ceres::TRUST_REGION;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = max_iterations;
+  so.num_threads = thread_count(o.threads);
+  so.function_tolerance = 1e-8;
+  so.parameter_tolerance = 1e-9;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  ceres::Solve(so, &h.problem, &out.summary);
+  out.residual_blocks = h.residual_blocks;
+  return out;
+}
+
+// r = R (x - x0) over the concatenated parameter blocks: a residual block with a fixed
+// Jacobian R. Used to hand ceres::Covariance the Gram matrix of a big problem in compact
+// form: for a chunk with (loss-corrected) Jacobian J = QR, R'R = J'J.
+class LinearizedCost final : public ceres::CostFunction {
+ public:
+  LinearizedCost(Eigen::MatrixXd r, std::vector<int> sizes, Eigen::VectorXd x0)
+      : r_(std::move(r)), x0_(std::move(x0)), sizes_(std::move(sizes)) {
+    set_num_residuals(static_cast<int>(r_.rows()));
+    for (int s : sizes_) mutable_parameter_block_sizes()->push_back(s);
+  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    Eigen::VectorXd dx(x0_.size());
+    int off = 0;
+    for (std::size_t b = 0; b < sizes_.size(); ++b) {
+      for (int k = 0; k < sizes_[b]; ++k) dx[off + k] = parameters[b][k] - x0_[off + k];
+      off += sizes_[b];
+    }
+    Eigen::Map<Eigen::VectorXd>(residuals, r_.rows()) = r_ * dx;
+    if (!jacobians) return true;
+    off = 0;
+    for (std::size_t b = 0; b < sizes_.size(); ++b) {
+      if (jacobians[b])
+        for (Eigen::Index i = 0; i < r_.rows(); ++i)
+          for (int k = 0; k < sizes_[b]; ++k) jacobians[b][i * sizes_[b] + k] = r_(i, off + k);
+      off += sizes_[b];
+    }
+    return true;
+  }
+
+ private:
+  Eigen::MatrixXd r_;
+  Eigen::VectorXd x0_;
+  std::vector<int> sizes_;
+};
+
+// Standard deviations of the parameters at `at` (the solution) from ceres::Covariance.
+// Parameters at a bound are held fixed (SubsetManifold) and get 0; a lobe without weight
+// leaves its m and r undetermined (NaN). The covariance is computed on the compact
+// linearisation above (one R factor per chunk of the loss-corrected Jacobian), which has
+// exactly the Gram matrix of the full problem, so it costs a fraction of the solve.
+bool covariance_stddev(const std::vector<const FitBin*>& bins, const CtParams& solution, const CtFitOptions& o,
+                       double scale, CtParams& sd, std::string& message) {
+  const int N = solution.lobes;
+  const int P = 3 * (N + 1) + 2 * N;
+  CtParams at = solution;
+  ProblemHolder full;
+  build_problem(full, bins, at, o);
+  ceres::Problem compact;
+  CtParams lin = at;  // the compact problem's own parameter storage
+  std::vector<int> sizes{N + 1, N + 1, N + 1, 2 * N};
+  Eigen::VectorXd x0(P);
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k <= N; ++k) x0[c * (N + 1) + k] = at.lin[c][k];
+  for (int k = 0; k < 2 * N; ++k) x0[3 * (N + 1) + k] = at.nl[k];
+  std::vector<double> jac_storage;
+  for (ceres::ResidualBlockId id : full.ids) {
+    const int rows = full.problem.GetCostFunctionForResidualBlock(id)->num_residuals();
+    jac_storage.assign(static_cast<std::size_t>(rows) * P, 0.0);
+    std::vector<double> residuals(static_cast<std::size_t>(rows));
+    std::array<double*, 4> jac;
+    std::size_t off = 0;
+    for (int b = 0; b < 4; ++b) {
+      jac[b] = jac_storage.data() + off;
+      off += static_cast<std::size_t>(rows) * sizes[b];
+    }
+    double cost = 0;
+    if (!full.problem.EvaluateResidualBlock(id, true, &cost, residuals.data(), jac.data())) {
+      message = "the Jacobian could not be evaluated at the solution";
+      return false;
+    }
+    Eigen::MatrixXd j(rows, P);
+    int col = 0;
+    for (int b = 0; b < 4; ++b) {
+      j.middleCols(col, sizes[b]) =
+          Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jac[b], rows, sizes[b]);
+      col += sizes[b];
+    }
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(j);
+    const Eigen::Index kept = std::min<Eigen::Index>(rows, P);
+    Eigen::MatrixXd r = qr.matrixQR().topRows(kept).triangularView<Eigen::Upper>();
+    compact.AddResidualBlock(new LinearizedCost(std::move(r), sizes, x0), nullptr,
+                             std::vector<double*>{lin.lin[0].data(), lin.lin[1].data(), lin.lin[2].data(), lin.nl.data()});
+  }
+  std::array<std::vector<int>, 3> fixed_lin;
+  std::vector<int> fixed_nl;
+  std::vector<bool> dead(N);
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k <= N; ++k)
+      if (at.lin[c][k] <= 1e-12) fixed_lin[c].push_back(k);
+  for (int l = 0; l < N; ++l) {
+    dead[l] = at.lin[0][1 + l] <= 1e-12 && at.lin[1][1 + l] <= 1e-12 && at.lin[2][1 + l] <= 1e-12;
+    const double m = at.nl[2 * l], r = at.nl[2 * l + 1];
+    if (dead[l] || m <= o.m_min * (1 + 1e-9) || m >= 1.0 - 1e-9) fixed_nl.push_back(2 * l);
+    if (dead[l] || r <= 1e-9 || r >= 1.0 - 1e-9) fixed_nl.push_back(2 * l + 1);
+  }
+  auto hold = [&](double* block, int size, const std::vector<int>& fixed) {
+    if (static_cast<int>(fixed.size()) == size)
+      compact.SetParameterBlockConstant(block);
+    else if (!fixed.empty())
+      compact.SetManifold(block, new ceres::SubsetManifold(size, fixed));
+    return static_cast<int>(fixed.size()) < size;
+  };
+  std::vector<std::pair<const double*, const double*>> blocks;
+  std::array<bool, 3> lin_free;
+  for (int c = 0; c < 3; ++c) {
+    lin_free[c] = hold(lin.lin[c].data(), N + 1, fixed_lin[c]);
+    if (lin_free[c]) blocks.emplace_back(lin.lin[c].data(), lin.lin[c].data());
+  }
+  const bool nl_free = hold(lin.nl.data(), 2 * N, fixed_nl);
+  if (nl_free) blocks.emplace_back(lin.nl.data(), lin.nl.data());
+  ceres::Covariance::Options co;
+  co.num_threads = 1;
+  co.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance cov(co);
+  if (!cov.Compute(blocks, &compact)) {
+    message = "ceres::Covariance::Compute failed: the Jacobian is rank deficient at the solution";
+    return false;
+  }
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> m(static_cast<std::size_t>((N + 1) * (N + 1)), 0.0);
+    if (lin_free[c]) cov.GetCovarianceBlock(lin.lin[c].data(), lin.lin[c].data(), m.data());
+    for (int k = 0; k <= N; ++k) sd.lin[c][k] = std::sqrt(std::max(0.0, m[k * (N + 1) + k])) * scale;
+  }
+  std::vector<double> m(static_cast<std::size_t>(4 * N * N), 0.0);
+  if (nl_free) cov.GetCovarianceBlock(lin.nl.data(), lin.nl.data(), m.data());
+  for (int k = 0; k < 2 * N; ++k) sd.nl[k] = std::sqrt(std::max(0.0, m[k * 2 * N + k])) * scale;
+  for (int l = 0; l < N; ++l)
+    if (dead[l]) sd.nl[2 * l] = sd.nl[2 * l + 1] = std::numeric_limits<double>::quiet_NaN();
+  message = fmt::format("ceres::Covariance (DENSE_SVD) on the Jacobian's per-chunk R factors; parameters at a "
+                        "bound held fixed; scaled by sqrt(max(1, chi2/dof)) = {:.3g}",
+                        scale);
+  return true;
+}
+
+// Non-negative least squares min x'Ax - 2b'x over x >= 0 for up to 4 unknowns, by
+// enumerating the active sets (the problem is convex: the best feasible stationary point
+// of a face is the optimum). Returns the cost without the constant term.
+double nnls_small(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  const int n = static_cast<int>(b.size());
+  double best = std::numeric_limits<double>::infinity();
+  x = Eigen::VectorXd::Zero(n);
+  for (int mask = 0; mask < (1 << n); ++mask) {
+    std::vector<int> idx;
+    for (int k = 0; k < n; ++k)
+      if (mask & (1 << k)) idx.push_back(k);
+    Eigen::VectorXd sol = Eigen::VectorXd::Zero(n);
+    if (!idx.empty()) {
+      const int m = static_cast<int>(idx.size());
+      Eigen::MatrixXd As(m, m);
+      Eigen::VectorXd bs(m);
+      for (int a = 0; a < m; ++a) {
+        bs[a] = b[idx[a]];
+        for (int c = 0; c < m; ++c) As(a, c) = A(idx[a], idx[c]);
+      }
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(As);
+      if (ldlt.info() != Eigen::Success) continue;
+      const Eigen::VectorXd xs = ldlt.solve(bs);
+      if (!xs.allFinite() || (xs.array() < 0.0).any()) continue;
+      for (int a = 0; a < m; ++a) sol[idx[a]] = xs[a];
+    }
+    const double cost = sol.dot(A * sol) - 2.0 * b.dot(sol);
+    if (cost < best) {
+      best = cost;
+      x = sol;
+    }
+  }
+  return best;
+}
+
+struct GridStart {
+  CtParams params;
+  double cost = 0;
+  std::string origin;
+};
+
+// Grid starts: every combination of N distinct roughnesses from a log-spaced list, r = 0.5,
+// with kd and ks from NNLS on relative residuals (the linear part of the model).
+std::vector<GridStart> grid_starts(const std::vector<const FitBin*>& bins, const CtFitOptions& o) {
+  std::vector<double> grid;
+  for (double m : {0.6, 0.4, 0.25, 0.15, 0.09, 0.05, 0.03, 0.018, 0.01, 0.006, 0.0035, 0.002})
+    if (m >= o.m_min) grid.push_back(m);
+  const int G = static_cast<int>(grid.size());
+  const int N = o.lobes;
+  // Basis values: column 0 the diffuse 1/pi, column 1 + g the lobe of roughness grid[g].
+  // Gram matrices per channel over the subsample with weights (inv_sigma / v)^2.
+  std::array<Eigen::MatrixXd, 3> gram;
+  std::array<Eigen::VectorXd, 3> rhs;
+  for (int c = 0; c < 3; ++c) {
+    gram[c] = Eigen::MatrixXd::Zero(G + 1, G + 1);
+    rhs[c] = Eigen::VectorXd::Zero(G + 1);
+  }
+  Eigen::VectorXd phi(G + 1);
+  for (const FitBin* b : bins) {
+    phi[0] = kInvPi;
+    for (int g = 0; g < G; ++g) phi[1 + g] = brdf::ct_lobe(grid[g], 0.5, b->geometry);
+    for (int c = 0; c < 3; ++c) {
+      if (b->inv_sigma[c] == 0.0) continue;
+      const double w = b->inv_sigma[c] / b->value[c];
+      const double w2 = w * w;
+      gram[c].selfadjointView<Eigen::Lower>().rankUpdate(phi, w2);
+      rhs[c] += w2 * b->value[c] * phi;
+    }
+  }
+  for (int c = 0; c < 3; ++c) gram[c] = gram[c].selfadjointView<Eigen::Lower>();
+
+  std::vector<GridStart> out;
+  std::vector<int> pick(N);
+  // Enumerate strictly increasing index tuples (grid is in decreasing m: broadest first).
+  std::function<void(int, int)> rec = [&](int depth, int from) {
+    if (depth == N) {
+      GridStart s;
+      s.params.lobes = N;
+      std::vector<int> cols{0};
+      for (int l = 0; l < N; ++l) cols.push_back(1 + pick[l]);
+      double cost = 0;
+      for (int c = 0; c < 3; ++c) {
+        Eigen::MatrixXd A(N + 1, N + 1);
+        Eigen::VectorXd bb(N + 1), x;
+        for (int a = 0; a <= N; ++a) {
+          bb[a] = rhs[c][cols[a]];
+          for (int e = 0; e <= N; ++e) A(a, e) = gram[c](cols[a], cols[e]);
+        }
+        cost += nnls_small(A, bb, x);
+        for (int a = 0; a <= N; ++a) s.params.lin[c][a] = x[a];
+      }
+      std::string ms;
+      for (int l = 0; l < N; ++l) {
+        s.params.nl[2 * l] = grid[pick[l]];
+        s.params.nl[2 * l + 1] = 0.5;
+        ms += fmt::format("{}{:g}", l ? "," : "", grid[pick[l]]);
+      }
+      s.cost = cost;
+      s.origin = "grid m=" + ms;
+      out.push_back(s);
+      return;
+    }
+    for (int g = from; g < G; ++g) {
+      pick[depth] = g;
+      rec(depth + 1, g + 1);
+    }
+  };
+  rec(0, 0);
+  std::sort(out.begin(), out.end(), [](const GridStart& a, const GridStart& b) { return a.cost < b.cost; });
+  return out;
+}
+
+// Keeps every channel's model positive where it has data: a small diffuse part.
+void ensure_positive(CtParams& p, const std::vector<const FitBin*>& bins) {
+  for (int c = 0; c < 3; ++c) {
+    double mean = 0;
+    int n = 0;
+    for (const FitBin* b : bins)
+      if (b->inv_sigma[c] != 0.0) {
+        mean += b->value[c];
+        ++n;
+      }
+    if (n > 0) p.lin[c][0] = std::max(p.lin[c][0], 1e-4 * std::numbers::pi * mean / n);
+  }
+}
+
+std::string termination_text(const ceres::Solver::Summary& s) {
+  return fmt::format("{}: {}", ceres::TerminationTypeToString(s.termination_type), s.message);
+}
+
+}  // namespace
+
+void CtFitOptions::check() const {
+  auto fail = [](const std::string& key, const std::string& value, const char* rule) {
+    throw DataError(fmt::format("CtFitOptions::{} = {}. Violated constraint: {}", key, value, rule));
+  };
+  if (lobes < 1 || lobes > kMaxLobes) fail("lobes", std::to_string(lobes), "1..3");
+  if (grid_starts < 1) fail("grid_starts", std::to_string(grid_starts), ">= 1");
+  if (random_starts < 0) fail("random_starts", std::to_string(random_starts), ">= 0");
+  if (max_iterations < 1) fail("max_iterations", std::to_string(max_iterations), ">= 1");
+  if (start_bins < 100) fail("start_bins", std::to_string(start_bins), ">= 100");
+  if (!(huber_scale >= 0.0)) fail("huber_scale", fmt::format("{}", huber_scale), ">= 0");
+  if (!(m_min > 0.0 && m_min < 0.1)) fail("m_min", fmt::format("{}", m_min), "in (0, 0.1)");
+  if (threads < 0) fail("threads", std::to_string(threads), ">= 0");
+  if (chunk_bins < 1) fail("chunk_bins", std::to_string(chunk_bins), ">= 1");
+  data.check();
+}
+
+Json StartReport::to_json() const {
+  return {{"origin", origin},
+          {"initial_cost", initial_cost},
+          {"final_cost", final_cost},
+          {"iterations", iterations},
+          {"converged", converged}};
+}
+
+Json FitSummary::to_json() const {
+  Json s = Json::array();
+  for (const StartReport& r : starts) s.push_back(r.to_json());
+  return {{"converged", converged},
+          {"termination", termination},
+          {"iterations", iterations},
+          {"initial_cost", initial_cost},
+          {"final_cost", final_cost},
+          {"residual_blocks", residual_blocks},
+          {"residuals", residuals},
+          {"parameters", parameters},
+          {"chi2_per_dof", chi2_per_dof},
+          {"time_s", time_s},
+          {"seed", seed},
+          {"starts", s},
+          {"covariance_ok", covariance_ok},
+          {"covariance_message", covariance_message}};
+}
+
+Json CookTorranceStddev::to_json() const {
+  Json lobes_json = Json::array();
+  for (const brdf::CtLobe& l : lobes)
+    lobes_json.push_back({{"ks", rgb_to_json(l.ks)}, {"m", number_or_null(l.m)}, {"r", number_or_null(l.r)}});
+  return {{"kd", rgb_to_json(kd)}, {"lobes", lobes_json}};
+}
+
+Json CookTorranceFit::to_json(const std::string& name) const {
+  brdf::PaintSpec spec;
+  spec.name = name;
+  spec.params = params;
+  Json j = brdf::to_json(spec);
+  j["residual"] = residual.to_json();
+  j["stddev"] = stddev.to_json();
+  j["summary"] = summary.to_json();
+  return j;
+}
+
+std::vector<double> evaluate_cook_torrance(const FitData& data, const brdf::CookTorranceParams& p) {
+  std::vector<double> out(3 * data.bins.size());
+  for (std::size_t q = 0; q < data.bins.size(); ++q) {
+    const FitBin& b = data.bins[q];
+    brdf::Rgb f = p.kd * kInvPi;
+    for (const brdf::CtLobe& l : p.lobes) f += l.ks * brdf::ct_lobe(l.m, l.r, b.geometry);
+    for (int c = 0; c < 3; ++c) out[3 * q + c] = f[c];
+  }
+  return out;
+}
+
+CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
+  o.check();
+  const auto t0 = std::chrono::steady_clock::now();
+  const int N = o.lobes;
+  const std::size_t n_params = 3 * static_cast<std::size_t>(N + 1) + 2 * static_cast<std::size_t>(N);
+  if (data.residuals <= n_params)
+    throw DataError(fmt::format("{} measured values cannot determine the {} parameters of a {}-lobe Cook-Torrance fit",
+                                data.residuals, n_params, N));
+
+  std::vector<const FitBin*> all;
+  all.reserve(data.bins.size());
+  for (const FitBin& b : data.bins) all.push_back(&b);
+  const std::vector<const FitBin*> sub = subsample(data, o.start_bins);
+
+  // Starts.
+  const std::clock_t cpu0 = std::clock();
+  auto elapsed = [&] {
+    return fmt::format("{:.2f} s, cpu {:.2f} s", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                       static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC);
+  };
+  std::vector<GridStart> candidates = grid_starts(sub, o);
+  spdlog::debug("cook-torrance fit: {} grid starts on {} of {} bins in {}", candidates.size(), sub.size(),
+                all.size(), elapsed());
+  std::vector<GridStart> starts(candidates.begin(),
+                                candidates.begin() + std::min<std::ptrdiff_t>(o.grid_starts, candidates.size()));
+  std::mt19937_64 rng(o.seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> uni(0.05, 0.95);
+  for (int s = 0; s < o.random_starts && !starts.empty(); ++s) {
+    GridStart r = starts.front();
+    for (int l = 0; l < N; ++l) {
+      r.params.nl[2 * l] = std::clamp(r.params.nl[2 * l] * std::exp(0.4 * gauss(rng)), o.m_min, 1.0);
+      r.params.nl[2 * l + 1] = uni(rng);
+    }
+    r.origin = fmt::format("seed {} #{}", o.seed, s + 1);
+    starts.push_back(r);
+  }
+
+  CookTorranceFit fit;
+  fit.summary.seed = o.seed;
+  Solved best;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (GridStart& s : starts) {
+    ensure_positive(s.params, sub);
+    Solved r = solve(sub, s.params, o, std::max(10, o.max_iterations / 3));
+    StartReport rep;
+    rep.origin = s.origin;
+    rep.initial_cost = r.summary.initial_cost;
+    rep.final_cost = r.summary.final_cost;
+    rep.iterations = static_cast<int>(r.summary.iterations.size()) - 1;
+    rep.converged = r.summary.termination_type == ceres::CONVERGENCE;
+    fit.summary.starts.push_back(rep);
+    spdlog::debug("  start {}: cost {:.6g} -> {:.6g} in {} iterations ({})", rep.origin, rep.initial_cost,
+                  rep.final_cost, rep.iterations, elapsed());
+    if (r.summary.IsSolutionUsable() && r.summary.final_cost < best_cost) {
+      best_cost = r.summary.final_cost;
+      best = r;
+    }
+  }
+  if (!std::isfinite(best_cost)) throw JobError("the Cook-Torrance fit failed from every start (no usable solution)");
+
+  // Polish on all bins.
+  Solved final_solve = solve(all, best.params, o, o.max_iterations);
+  CtParams p = final_solve.params;
+  spdlog::debug("  polish on all bins: {} iterations ({})", final_solve.summary.iterations.size() - 1, elapsed());
+  FitSummary& sum = fit.summary;
+  sum.converged = final_solve.summary.termination_type == ceres::CONVERGENCE;
+  sum.termination = termination_text(final_solve.summary);
+  sum.iterations = static_cast<int>(final_solve.summary.iterations.size()) - 1;
+  sum.initial_cost = final_solve.summary.initial_cost;
+  sum.final_cost = final_solve.summary.final_cost;
+  sum.residual_blocks = final_solve.residual_blocks;
+  sum.residuals = data.residuals;
+  sum.parameters = n_params;
+  sum.chi2_per_dof = 2.0 * sum.final_cost / std::max<double>(1.0, static_cast<double>(sum.residuals - n_params));
+
+  // Standard deviations.
+  CtParams sd;
+  sd.lobes = N;
+  for (auto& ch : sd.lin) ch.fill(std::numeric_limits<double>::quiet_NaN());
+  sd.nl.fill(std::numeric_limits<double>::quiet_NaN());
+  if (o.covariance) {
+    const double scale = std::sqrt(std::max(1.0, sum.chi2_per_dof));
+    sum.covariance_ok = covariance_stddev(all, p, o, scale, sd, sum.covariance_message);
+  } else {
+    sum.covariance_message = "not computed";
+  }
+  spdlog::debug("  covariance: {} ({})", sum.covariance_message, elapsed());
+  // Lobes broadest first, standard deviations along.
+  brdf::CookTorranceParams params = p.to_params();
+  brdf::CookTorranceParams sdp = sd.to_params();
+  std::vector<int> order(N);
+  for (int l = 0; l < N; ++l) order[l] = l;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return params.lobes[a].m > params.lobes[b].m; });
+  fit.params.kd = params.kd;
+  fit.stddev.kd = sdp.kd;
+  for (int l : order) {
+    fit.params.lobes.push_back(params.lobes[l]);
+    fit.stddev.lobes.push_back(sdp.lobes[l]);
+  }
+  fit.residual = residual_report(data, evaluate_cook_torrance(data, fit.params));
+  sum.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return fit;
+}
+
+}  // namespace paintlab::fit

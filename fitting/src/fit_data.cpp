@@ -1,0 +1,197 @@
+#include "paintlab/fitting/fit_data.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "fit_util.h"
+#include "paintlab/core/error.h"
+
+namespace paintlab::fit {
+
+namespace {
+using brdf::kMerlBins;
+using brdf::kMerlPhiD;
+using brdf::kMerlThetaD;
+using brdf::kMerlThetaH;
+
+
+}  // namespace
+
+void FitDataOptions::check() const {
+  if (!(relative_floor > 0.0 && relative_floor < 1.0))
+    throw DataError(fmt::format("FitDataOptions::relative_floor = {}. Violated constraint: in (0, 1)", relative_floor));
+}
+
+const char* to_string(NoiseSource s) {
+  switch (s) {
+    case NoiseSource::None: return "none";
+    case NoiseSource::SampleSpread: return "sample-spread";
+    case NoiseSource::SampleNoise: return "sample-noise";
+  }
+  return "?";
+}
+
+FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& options,
+                         const std::vector<float>* noise_variance) {
+  options.check();
+  FitData data;
+  data.options = options;
+  std::size_t with_counts = 0, measured = 0;
+  for (std::size_t b = 0; b < kMerlBins; ++b) {
+    if (table.state(b) != brdf::BinState::Measured) continue;
+    ++measured;
+    with_counts += table.count(b) > 0;
+  }
+  // A table from binning has counts on every measured bin; a MERL file on none.
+  data.has_statistics = measured > 0 && with_counts == measured;
+  const bool use_noise = data.has_statistics && noise_variance && noise_variance->size() == 3 * kMerlBins;
+  data.noise_source = !data.has_statistics ? NoiseSource::None
+                      : use_noise          ? NoiseSource::SampleNoise
+                                           : NoiseSource::SampleSpread;
+
+  // Relative per-sample variances per bin and channel (positive values; the sample spread
+  // needs >= 2 samples).
+  std::vector<float> rho;
+  if (data.has_statistics) {
+    rho.assign(3 * kMerlBins, -1.0f);
+    for (std::size_t b = 0; b < kMerlBins; ++b) {
+      if (table.state(b) != brdf::BinState::Measured || (!use_noise && table.count(b) < 2)) continue;
+      const brdf::Rgb v = table.value(b);
+      const brdf::Rgb var = use_noise ? brdf::Rgb((*noise_variance)[3 * b], (*noise_variance)[3 * b + 1],
+                                                  (*noise_variance)[3 * b + 2])
+                                      : table.variance(b);
+      for (int c = 0; c < 3; ++c)
+        if (v[c] > 0.0) rho[3 * b + c] = static_cast<float>(var[c] / (v[c] * v[c]));
+    }
+  }
+  // Fallback where a neighbourhood has no variance at all: the median over the region.
+  std::array<std::array<double, 3>, kRegionCount> region_median{};
+  if (data.has_statistics) {
+    std::array<std::array<std::vector<float>, 3>, kRegionCount> per_region;
+    for (std::size_t b = 0; b < kMerlBins; ++b)
+      for (int c = 0; c < 3; ++c)
+        if (rho[3 * b + c] >= 0.0f) per_region[static_cast<int>(region_of_bin(b))][c].push_back(rho[3 * b + c]);
+    for (int r = 0; r < kRegionCount; ++r)
+      for (int c = 0; c < 3; ++c) {
+        auto& v = per_region[r][c];
+        if (v.empty()) {
+          region_median[r][c] = 0.0;
+          continue;
+        }
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+        region_median[r][c] = v[v.size() / 2];
+      }
+  }
+
+  const double floor2 = options.relative_floor * options.relative_floor;
+  for (std::size_t b = 0; b < kMerlBins; ++b) {
+    if (table.state(b) != brdf::BinState::Measured) continue;
+    if (data.has_statistics && table.count(b) < options.min_count) continue;
+    const brdf::Rgb v = table.value(b);
+    if (!(v > 0.0).any()) continue;
+    FitBin fb;
+    fb.bin = static_cast<std::uint32_t>(b);
+    fb.region = region_of_bin(b);
+    fb.coords = table.mean_coords(b);
+    fb.geometry = brdf::LobeGeometry::from_half_diff(fb.coords[0], fb.coords[1], fb.coords[2]);
+    if (!fb.geometry.valid) continue;  // mean coordinates below the horizon: no model value
+    std::array<double, 3> pooled{0, 0, 0};
+    if (data.has_statistics) {
+      const brdf::MerlBin mb = brdf::merl_bin_of_flat(b);
+      std::array<double, 3> num{0, 0, 0}, den{0, 0, 0};
+      for (int di = -1; di <= 1; ++di) {
+        const int i = mb.theta_h + di;
+        if (i < 0 || i >= kMerlThetaH) continue;
+        for (int dj = -1; dj <= 1; ++dj) {
+          const int j = mb.theta_d + dj;
+          if (j < 0 || j >= kMerlThetaD) continue;
+          for (int dk = -1; dk <= 1; ++dk) {
+            const int k = (mb.phi_d + dk + kMerlPhiD) % kMerlPhiD;
+            const std::size_t q = brdf::merl_flat_index({i, j, k});
+            // Degrees of freedom of the bin's variance estimate.
+            const double dof = static_cast<double>(table.count(q)) - (use_noise ? 0.0 : 1.0);
+            if (dof <= 0.0) continue;
+            for (int c = 0; c < 3; ++c)
+              if (rho[3 * q + c] >= 0.0f) {
+                num[c] += dof * rho[3 * q + c];
+                den[c] += dof;
+              }
+          }
+        }
+      }
+      for (int c = 0; c < 3; ++c)
+        pooled[c] = den[c] > 0.0 ? num[c] / den[c] : region_median[static_cast<int>(fb.region)][c];
+    }
+    const double n = std::max<double>(1.0, table.count(b));
+    for (int c = 0; c < 3; ++c) {
+      fb.value[c] = v[c];
+      if (!(v[c] > 0.0)) continue;
+      const double s2 = data.has_statistics ? pooled[c] / n : 0.0;
+      fb.noise_sigma[c] = std::sqrt(s2);
+      fb.target[c] = std::log(v[c]) + (options.delta_correction ? 0.5 * s2 : 0.0);
+      fb.inv_sigma[c] = 1.0 / std::sqrt(s2 + floor2);
+      ++data.residuals;
+    }
+    data.bins.push_back(fb);
+  }
+  if (data.bins.empty())
+    throw DataError(fmt::format("the table has no measured bins with positive values{}: nothing to fit",
+                                options.min_count > 1 ? fmt::format(" and at least {} samples", options.min_count)
+                                                      : std::string()));
+  return data;
+}
+
+Json RegionResidual::to_json() const {
+  return {{"bins", bins}, {"residuals", residuals}, {"log_rms", log_rms}, {"noise_floor", number_or_null(noise_floor)}};
+}
+
+Json ResidualReport::to_json() const {
+  Json regions_json = Json::object();
+  for (int r = 0; r < kRegionCount; ++r) regions_json[to_string(static_cast<Region>(r))] = regions[r].to_json();
+  return {{"log_rms", total.log_rms},
+          {"bins_used", total.bins},
+          {"residuals", total.residuals},
+          {"noise_floor_log_rms", number_or_null(total.noise_floor)},
+          {"noise_source", to_string(noise_source)},
+          {"regions", regions_json}};
+}
+
+ResidualReport residual_report(const FitData& data, const std::vector<double>& model) {
+  ResidualReport rep;
+  rep.noise_source = data.noise_source;
+  std::array<double, kRegionCount + 1> sq{}, noise{};
+  for (std::size_t q = 0; q < data.bins.size(); ++q) {
+    const FitBin& b = data.bins[q];
+    const int r = static_cast<int>(b.region);
+    bool used = false;
+    for (int c = 0; c < 3; ++c) {
+      if (b.inv_sigma[c] == 0.0) continue;
+      used = true;
+      const double m = model[3 * q + c];
+      const double e = m > 0.0 ? std::log(m) - std::log(b.value[c]) : std::log(1e-300) - std::log(b.value[c]);
+      sq[r] += e * e;
+      noise[r] += b.noise_sigma[c] * b.noise_sigma[c];
+      ++rep.regions[r].residuals;
+    }
+    rep.regions[r].bins += used;
+  }
+  for (int r = 0; r < kRegionCount; ++r) {
+    RegionResidual& rr = rep.regions[r];
+    rep.total.bins += rr.bins;
+    rep.total.residuals += rr.residuals;
+    sq[kRegionCount] += sq[r];
+    noise[kRegionCount] += noise[r];
+    if (rr.residuals > 0) {
+      rr.log_rms = std::sqrt(sq[r] / rr.residuals);
+      if (data.has_statistics) rr.noise_floor = std::sqrt(noise[r] / rr.residuals);
+    }
+  }
+  if (rep.total.residuals > 0) {
+    rep.total.log_rms = std::sqrt(sq[kRegionCount] / rep.total.residuals);
+    if (data.has_statistics) rep.total.noise_floor = std::sqrt(noise[kRegionCount] / rep.total.residuals);
+  }
+  return rep;
+}
+
+}  // namespace paintlab::fit

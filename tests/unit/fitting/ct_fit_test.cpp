@@ -1,0 +1,130 @@
+#include "paintlab/fitting/ct_fit.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "paintlab/brdf/cook_torrance.h"
+#include "paintlab/core/error.h"
+#include "synthetic.h"
+#include "paintlab/core/log.h"
+#include "test_util.h"
+
+namespace paintlab::fit {
+namespace {
+
+using test::NearRel;
+
+brdf::CookTorranceParams silver_params() {
+  brdf::CookTorranceParams p;
+  p.kd = brdf::Rgb(0.030, 0.032, 0.035);
+  p.lobes = {{brdf::Rgb(0.060, 0.062, 0.066), 0.38, 0.85},
+             {brdf::Rgb(0.045, 0.046, 0.048), 0.16, 0.55},
+             {brdf::Rgb(0.15, 0.15, 0.15), 0.015, 0.04}};
+  return p;
+}
+
+brdf::CookTorranceParams blue_params() {
+  brdf::CookTorranceParams p;
+  p.kd = brdf::Rgb(0.030, 0.060, 0.300);
+  p.lobes = {{brdf::Rgb(0.010, 0.010, 0.010), 0.30, 0.04}, {brdf::Rgb(0.15, 0.15, 0.15), 0.02, 0.04}};
+  return p;
+}
+
+void print_fit(const char* what, const CookTorranceFit& fit) {
+  const auto& p = fit.params;
+  std::printf("%s: kd %.4f %.4f %.4f", what, p.kd[0], p.kd[1], p.kd[2]);
+  for (std::size_t l = 0; l < p.lobes.size(); ++l)
+    std::printf(" | ks %.4f %.4f %.4f m %.4f (+-%.2g) r %.3f (+-%.2g)", p.lobes[l].ks[0], p.lobes[l].ks[1],
+                p.lobes[l].ks[2], p.lobes[l].m, fit.stddev.lobes[l].m, p.lobes[l].r, fit.stddev.lobes[l].r);
+  std::printf("\n  log-RMS %.4f (floor %.4f) peak %.4f glossy %.4f diffuse %.4f; %d iterations, %zu blocks, %zu residuals, %.2f s, converged %d\n",
+              fit.residual.total.log_rms, fit.residual.total.noise_floor, fit.residual.regions[0].log_rms,
+              fit.residual.regions[1].log_rms, fit.residual.regions[2].log_rms, fit.summary.iterations,
+              fit.summary.residual_blocks, fit.summary.residuals, fit.summary.time_s, fit.summary.converged);
+}
+
+// Every parameter within the tolerances: kd and ks 3 %, m 2 %, r 5 %.
+void expect_recovered(const brdf::CookTorranceParams& truth, const brdf::CookTorranceParams& fit, double kd_tol = 0.03,
+                      double ks_tol = 0.03, double m_tol = 0.02, double r_tol = 0.05) {
+  ASSERT_EQ(fit.lobes.size(), truth.lobes.size());
+  for (int c = 0; c < 3; ++c) EXPECT_THAT(fit.kd[c], NearRel(truth.kd[c], kd_tol)) << "kd channel " << c;
+  for (std::size_t l = 0; l < truth.lobes.size(); ++l) {
+    for (int c = 0; c < 3; ++c)
+      EXPECT_THAT(fit.lobes[l].ks[c], NearRel(truth.lobes[l].ks[c], ks_tol)) << "lobe " << l << " ks channel " << c;
+    EXPECT_THAT(fit.lobes[l].m, NearRel(truth.lobes[l].m, m_tol)) << "lobe " << l << " m";
+    EXPECT_THAT(fit.lobes[l].r, NearRel(truth.lobes[l].r, r_tol)) << "lobe " << l << " r";
+  }
+}
+
+TEST(CookTorranceFit, RecoversThreeLobesFromATabulatedPaintExactly) {
+  const brdf::CookTorranceParams truth = silver_params();
+  const brdf::MerlTable table = brdf::tabulate(brdf::CookTorrance(truth.kd, truth.lobes));
+  const FitData data = prepare_fit_data(table);
+  EXPECT_FALSE(data.has_statistics);
+  CtFitOptions opt;
+  opt.covariance = false;
+  const CookTorranceFit fit = fit_cook_torrance(data, opt);
+  print_fit("tabulated silver", fit);
+  EXPECT_TRUE(fit.summary.converged) << fit.summary.termination;
+  expect_recovered(truth, fit.params, 1e-3, 1e-3, 1e-3, 1e-3);
+  EXPECT_LT(fit.residual.total.log_rms, 1e-4);
+}
+
+TEST(CookTorranceFit, RecoversThreeLobesFromNoisyBinnedSamples) {
+  init_logging(1);
+  const brdf::CookTorranceParams truth = silver_params();
+  const brdf::CookTorrance paint(truth.kd, truth.lobes);
+  const BinnedTable binned = test_support::binned_sweep(paint, 160, 0.02, test::seed());
+  const FitData data = prepare_fit_data(binned.table, {}, &binned.noise_variance);
+  EXPECT_TRUE(data.has_statistics);
+  EXPECT_EQ(data.noise_source, NoiseSource::SampleNoise);
+  const CookTorranceFit fit = fit_cook_torrance(data);
+  print_fit("binned silver, 2 % noise", fit);
+  {
+    const ResidualReport truth_res = residual_report(data, evaluate_cook_torrance(data, truth));
+    double pix = 0;
+    std::size_t n = 0;
+    for (const FitBin& b : data.bins) {
+      const brdf::Rgb nv = binned.noise(b.bin);
+      for (int c = 0; c < 3; ++c) {
+        pix += nv[c] / (b.value[c] * b.value[c]) / binned.table.count(b.bin);
+        ++n;
+      }
+    }
+    std::printf("truth residual log-RMS %.4f (peak %.4f glossy %.4f diffuse %.4f), pixel-noise floor %.4f\n",
+                truth_res.total.log_rms, truth_res.regions[0].log_rms, truth_res.regions[1].log_rms,
+                truth_res.regions[2].log_rms, std::sqrt(pix / n));
+  }
+  EXPECT_TRUE(fit.summary.converged) << fit.summary.termination;
+  expect_recovered(truth, fit.params);
+  EXPECT_LT(fit.residual.total.log_rms, 1.5 * fit.residual.total.noise_floor);
+  EXPECT_TRUE(fit.summary.covariance_ok) << fit.summary.covariance_message;
+}
+
+TEST(CookTorranceFit, RecoversTwoLobes) {
+  const brdf::CookTorranceParams truth = blue_params();
+  const brdf::CookTorrance paint(truth.kd, truth.lobes);
+  const BinnedTable binned = test_support::binned_sweep(paint, 160, 0.02, test::seed());
+  CtFitOptions opt;
+  opt.lobes = 2;
+  const CookTorranceFit fit = fit_cook_torrance(prepare_fit_data(binned.table, {}, &binned.noise_variance), opt);
+  print_fit("binned blue, 2 % noise", fit);
+  EXPECT_TRUE(fit.summary.converged) << fit.summary.termination;
+  expect_recovered(truth, fit.params);
+}
+
+TEST(CookTorranceFit, BadInputIsRejected) {
+  brdf::MerlTable empty;
+  EXPECT_THROW(prepare_fit_data(empty), DataError);
+  brdf::MerlTable few;
+  for (std::size_t b = 0; b < 4; ++b) few.set_value(100000 + b, brdf::Rgb(0.1, 0.1, 0.1), brdf::BinState::Measured);
+  const FitData data = prepare_fit_data(few);
+  EXPECT_THROW(fit_cook_torrance(data), DataError);  // 12 values, 18 parameters
+  CtFitOptions opt;
+  opt.lobes = 4;
+  EXPECT_THROW(opt.check(), DataError);
+}
+
+}  // namespace
+}  // namespace paintlab::fit

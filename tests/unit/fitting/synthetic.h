@@ -1,0 +1,61 @@
+#pragma once
+// Synthetic BRDF samples as the rig would deliver them, without images: the upper half of
+// a 40 mm sphere seen from 1 m, the LED 0.5 m from the sphere in the horizontal plane at
+// table angle a (deg), one sample per pixel of a camera whose focal length is chosen so
+// the sphere is `sphere_px` pixels across. Each sample is the paint's value times
+// (1 + noise_rel * N(0, 1)), with that noise variance attached.
+#include <cmath>
+#include <random>
+
+#include "paintlab/brdf/brdf.h"
+#include "paintlab/brdf/rusinkiewicz.h"
+#include "paintlab/core/geometry.h"
+#include "paintlab/fitting/binning.h"
+
+namespace paintlab::fit::test_support {
+
+inline void sphere_samples(const brdf::Brdf& paint, double angle_deg, int sphere_px, double noise_rel,
+                           std::mt19937_64& rng, SampleBatch& out) {
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const double radius = 0.04, distance = 1.0;
+  const double f = sphere_px / (2.0 * radius / distance);
+  const Vec3 cam(distance, 0, 0);
+  const double ang = deg_to_rad(angle_deg);
+  const Vec3 led(0.5 * std::cos(ang), 0.5 * std::sin(ang), 0);
+  const int half = sphere_px / 2 + 2;
+  for (int y = -half; y < half; ++y)
+    for (int x = -half; x < half; ++x) {
+      const Vec3 d = Vec3(-1, (x + 0.5) / f, -(y + 0.5) / f).normalized();
+      const double b = cam.dot(d), c = cam.squaredNorm() - radius * radius, disc = b * b - c;
+      if (disc < 0) continue;
+      const Vec3 p = cam + (-b - std::sqrt(disc)) * d, n = p / radius;
+      if (n.z() <= 0.0) continue;  // the upper half, down to the equator (where the highlight is)
+      const Mat3 frame = frame_from_normal(n);
+      const Vec3 wi = frame.transpose() * (led - p).normalized(), wo = frame.transpose() * (cam - p).normalized();
+      if (wi.z() <= 0.01 || wo.z() <= 0.01) continue;
+      const brdf::HalfDiff hd = brdf::half_diff_from_directions(wi, wo);
+      const brdf::Rgb v = paint.eval(wi, wo);
+      float rgb[3], var[3];
+      for (int ch = 0; ch < 3; ++ch) {
+        rgb[ch] = static_cast<float>(v[ch] * (1.0 + noise_rel * gauss(rng)));
+        var[ch] = static_cast<float>(v[ch] * v[ch] * noise_rel * noise_rel);
+      }
+      out.push_back(hd.theta_h, hd.theta_d, hd.phi_d, rgb, var);
+    }
+}
+
+// A whole sweep (angles start..stop in step) binned.
+inline BinnedTable binned_sweep(const brdf::Brdf& paint, int sphere_px, double noise_rel, std::uint64_t seed,
+                                double step_deg = 1.0, double start_deg = 0.0, double stop_deg = 180.0) {
+  std::mt19937_64 rng(seed);
+  BinAccumulator acc;
+  SampleBatch batch;
+  for (double a = start_deg; a <= stop_deg + 1e-9; a += step_deg) {
+    batch.clear();
+    sphere_samples(paint, a, sphere_px, noise_rel, rng, batch);
+    acc.add(batch);
+  }
+  return acc.finish();
+}
+
+}  // namespace paintlab::fit::test_support
