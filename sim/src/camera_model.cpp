@@ -80,24 +80,37 @@ void CameraModel::blur(ImageF& image, int threads) const {
   for (int k = -radius; k <= radius; ++k) sum += taps[static_cast<std::size_t>(k + radius)] = static_cast<float>(std::exp(-0.5 * k * k / (sigma * sigma)));
   for (float& t : taps) t = static_cast<float>(t / sum);
   const int w = image.width(), h = image.height(), ch = image.channels();
+  const int n = 2 * radius + 1;
   ImageF tmp(w, h, ch);
-  // Horizontal pass into tmp, vertical pass back into the image.
+  // Horizontal pass into tmp (clamped taps only near the left and right borders), then a
+  // vertical pass back into the image over whole rows (clamped row pointers).
   detail::parallel_rows(h, threads, [&](int y) {
     const float* in = image.row(y);
     float* out = tmp.row(y);
-    for (int x = 0; x < w; ++x)
+    for (int x = 0; x < w; ++x) {
+      bool inside = x >= radius && x + radius < w;
       for (int c = 0; c < ch; ++c) {
         float acc = 0;
-        for (int k = -radius; k <= radius; ++k) acc += taps[static_cast<std::size_t>(k + radius)] * in[std::clamp(x + k, 0, w - 1) * ch + c];
+        if (inside) {
+          const float* src = in + (x - radius) * ch + c;
+          for (int k = 0; k < n; ++k) acc += taps[static_cast<std::size_t>(k)] * src[k * ch];
+        } else {
+          for (int k = 0; k < n; ++k) acc += taps[static_cast<std::size_t>(k)] * in[std::clamp(x + k - radius, 0, w - 1) * ch + c];
+        }
         out[x * ch + c] = acc;
       }
+    }
   });
   detail::parallel_rows(h, threads, [&](int y) {
+    std::vector<const float*> rows(static_cast<std::size_t>(n));
+    for (int k = 0; k < n; ++k) rows[static_cast<std::size_t>(k)] = tmp.row(std::clamp(y + k - radius, 0, h - 1));
     float* out = image.row(y);
-    for (int i = 0; i < w * ch; ++i) {
-      float acc = 0;
-      for (int k = -radius; k <= radius; ++k) acc += taps[static_cast<std::size_t>(k + radius)] * tmp.row(std::clamp(y + k, 0, h - 1))[i];
-      out[i] = acc;
+    const int len = w * ch;
+    for (int i = 0; i < len; ++i) out[i] = 0;
+    for (int k = 0; k < n; ++k) {
+      const float t = taps[static_cast<std::size_t>(k)];
+      const float* src = rows[static_cast<std::size_t>(k)];
+      for (int i = 0; i < len; ++i) out[i] += t * src[i];
     }
   });
 }

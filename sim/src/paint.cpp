@@ -1,5 +1,6 @@
 #include "paintlab/sim/paint.h"
 
+#include <algorithm>
 #include <string>
 
 #include "paintlab/brdf/carpaint.h"
@@ -22,13 +23,17 @@ class GlitterPart final : public brdf::Brdf {
   std::shared_ptr<const brdf::LayeredPearlescent> paint_;
 };
 
+// The lobes listed in `which` (carried = true) or the others (carried = false).
 template <class Lobe>
-std::vector<Lobe> pick_lobes(const std::vector<Lobe>& all, const std::vector<int>& which, const std::string& name) {
-  std::vector<Lobe> out;
-  for (int i : which) {
+std::vector<Lobe> pick_lobes(const std::vector<Lobe>& all, const std::vector<int>& which, const std::string& name,
+                             bool carried = true) {
+  for (int i : which)
     if (i < 0 || static_cast<std::size_t>(i) >= all.size())
       throw DataError("paint '" + name + "': flakes carry lobe " + std::to_string(i + 1) + ", which does not exist");
-    out.push_back(all[static_cast<std::size_t>(i)]);
+  std::vector<Lobe> out;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    bool listed = std::find(which.begin(), which.end(), static_cast<int>(i)) != which.end();
+    if (listed == carried) out.push_back(all[i]);
   }
   return out;
 }
@@ -47,11 +52,15 @@ SimPaint sim_paint(const brdf::PaintSpec& spec) {
   sp.lifetime_deg = fl.lifetime_deg;
   if (const auto* ct = spec.cook_torrance()) {
     sp.flake_part = std::make_shared<brdf::CookTorrance>(brdf::Rgb::Zero(), pick_lobes(ct->lobes, fl.lobes, spec.name));
+    sp.steady_part = std::make_shared<brdf::CookTorrance>(ct->kd, pick_lobes(ct->lobes, fl.lobes, spec.name, false));
   } else if (const auto* axf = spec.axf_carpaint()) {
     brdf::AxfCarPaintParams p = *axf;
     p.diffuse = 0.0;
     p.lobes = pick_lobes(axf->lobes, fl.lobes, spec.name);
     sp.flake_part = std::make_shared<brdf::AxfCarPaint>(std::move(p));
+    brdf::AxfCarPaintParams rest = *axf;
+    rest.lobes = pick_lobes(axf->lobes, fl.lobes, spec.name, false);
+    sp.steady_part = std::make_shared<brdf::AxfCarPaint>(std::move(rest));
   } else if (spec.pearlescent()) {
     auto pearl = std::dynamic_pointer_cast<const brdf::LayeredPearlescent>(full);
     if (!pearl) throw DataError("paint '" + spec.name + "': expected a layered-pearlescent model");

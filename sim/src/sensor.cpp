@@ -1,6 +1,8 @@
 #include "paintlab/sim/sensor.h"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
 #include <string>
 
@@ -138,29 +140,79 @@ double Sensor::expected_raw(double radiance, int x, int y, double exposure_s, do
 
 namespace {
 
-struct ChainConstants {
-  double t, dark_mu, read, read2, full_well, norm, range, black, adc_max;
-  int shift_left, shift_right;
-};
-
-// One pixel value through the whole chain.
-inline std::uint16_t chain(const ChainConstants& k, const ResponseCurve& response, bool linear, double mu,
-                           std::uint64_t bits, const detail::NormalTable& normal) {
-  float z = normal(static_cast<std::uint32_t>(bits >> 32));
-  double e;
-  if (mu >= 20.0) {
-    e = mu + std::sqrt(mu + k.read2) * z;
-  } else {
-    double u = static_cast<double>(bits & 0xFFFFFFFFull) * 0x1.0p-32;
-    e = detail::poisson_small(mu, u) + k.read * z;
-  }
-  e = std::min(e, k.full_well);
-  double x = std::min(e * k.norm, 1.0);
-  double y = linear ? x : response(x);
-  double v = std::clamp(k.black + y * k.range, 0.0, k.adc_max);
-  auto q = static_cast<std::uint32_t>(v + 0.5);
-  return static_cast<std::uint16_t>(k.shift_left ? (q << k.shift_left) : (q >> k.shift_right));
+// exp(-x) for x in [0, 700) to ~2e-7 relative: 2^-i built from its bits times a degree-6
+// polynomial of exp on [-ln2/2, ln2/2] in Estrin's form (short dependency chains). The
+// Poisson sampler calls it for every pixel below 20 electrons.
+inline double exp_neg(double x) {
+  double t = x * 1.4426950408889634;  // log2(e)
+  double i = std::nearbyint(t);
+  double y = (i - t) * 0.6931471805599453;  // in [-ln2/2, ln2/2]
+  double y2 = y * y;
+  double p = (1.0 + y) + y2 * (0.5 + y * (1.0 / 6)) + (y2 * y2) * ((1.0 / 24) + y * (1.0 / 120) + y2 * (1.0 / 720));
+  return p * std::bit_cast<double>(static_cast<std::uint64_t>(1023 - static_cast<std::int64_t>(i)) << 52);
 }
+
+// 1 / k for the Poisson recursion.
+inline const std::array<double, 201>& reciprocals() {
+  static const auto table = [] {
+    std::array<double, 201> t{};
+    for (int k = 1; k <= 200; ++k) t[static_cast<std::size_t>(k)] = 1.0 / k;
+    return t;
+  }();
+  return table;
+}
+
+// The whole chain for one pixel value, with every constant of the exposure.
+struct Chain {
+  double dark_mu, read, read2, full_well, norm, range, black, adc_max;
+  int shift_left, shift_right;
+  bool linear;
+  std::array<double, 8> c{};  // response coefficients
+  int nc = 1;
+  const detail::NormalTable* normal;
+  const std::array<double, 201>* inv;
+
+  [[gnu::always_inline]] inline std::uint16_t operator()(double mu, std::uint64_t bits) const {
+    float z = (*normal)(static_cast<std::uint32_t>(bits >> 32));
+    double e;
+    if (mu >= 20.0) {
+      e = mu + std::sqrt(mu + read2) * z;
+    } else {
+      // Poisson by inversion of its CDF with the low 32 bits.
+      double u = static_cast<double>(bits & 0xFFFFFFFFull) * 0x1.0p-32;
+      // The first four thresholds without branches (the outcome is random, so branches
+      // would mispredict), then the rare longer tail.
+      const auto& r = *inv;
+      double p1 = exp_neg(mu), p2 = p1 * mu, p3 = p2 * mu * r[2], p4 = p3 * mu * r[3];
+      double c1 = p1, c2 = c1 + p2, c3 = c2 + p3, c4 = c3 + p4;
+      int k = (u > c1) + (u > c2) + (u > c3) + (u > c4);
+      if (k == 4) {  // K >= 4: p = P(3), cdf = P(<= 3)
+        double p = p4, cdf = c4;
+        for (;;) {
+          p *= mu * r[static_cast<std::size_t>(k)];  // P(k)
+          cdf += p;                                  // P(<= k)
+          if (!(u > cdf) || k >= 200) break;
+          ++k;
+        }
+      }
+      e = k + read * z;
+    }
+    e = std::min(e, full_well);
+    double x = std::min(e * norm, 1.0);
+    double y = x;
+    if (!linear) {
+      if (x <= 0) {
+        y = c[0] * x;
+      } else {
+        y = 0;
+        for (int k = nc; k-- > 0;) y = (y + c[static_cast<std::size_t>(k)]) * x;
+      }
+    }
+    double v = std::clamp(black + y * range, 0.0, adc_max);
+    auto q = static_cast<std::uint32_t>(v + 0.5);
+    return static_cast<std::uint16_t>(shift_left ? (q << shift_left) : (q >> shift_right));
+  }
+};
 
 }  // namespace
 
@@ -175,8 +227,7 @@ Image<std::uint16_t> Sensor::expose(const ImageF& radiance, const ExposureSettin
   std::uint64_t frame = s.frame_index ? *s.frame_index : frames_.fetch_add(1);
   if (s.frame_index) frames_.store(std::max(frames_.load(), *s.frame_index + 1));
 
-  ChainConstants k{};
-  k.t = s.exposure_s;
+  Chain k{};
   k.dark_mu = p_.dark_current_e_per_s * s.exposure_s;
   k.read = p_.read_noise_e;
   k.read2 = p_.read_noise_e * p_.read_noise_e;
@@ -187,35 +238,47 @@ Image<std::uint16_t> Sensor::expose(const ImageF& radiance, const ExposureSettin
   k.adc_max = p_.adc_max_dn();
   k.shift_left = std::max(0, out_bits - p_.adc_bits);
   k.shift_right = std::max(0, p_.adc_bits - out_bits);
+  k.linear = response_.linear();
+  const auto& coeffs = response_.coefficients();
+  if (coeffs.size() > k.c.size()) throw DataError("sensor: the response curve has more than 8 coefficients");
+  std::copy(coeffs.begin(), coeffs.end(), k.c.begin());
+  k.nc = static_cast<int>(coeffs.size());
+  k.normal = &detail::NormalTable::get();
+  k.inv = &reciprocals();
 
   const int channels = radiance.channels();
   Image<std::uint16_t> out(width_, height_, channels);
   const std::uint64_t key = detail::hash_key(seed_, kStreamFrame, frame);
-  const auto& normal = detail::NormalTable::get();
-  const bool linear = response_.linear();
   const float* in = radiance.data();
   std::uint16_t* dst = out.data();
   const float* gmap = gain_map_.data();
+  const double t = s.exposure_s;
   detail::parallel_rows(height_, threads, [&](int y) {
     std::size_t p0 = static_cast<std::size_t>(y) * width_;
+    if (channels == 1) {
+      for (int x = 0; x < width_; ++x) {
+        std::size_t i = p0 + x;
+        double mu = std::max(static_cast<double>(in[i]), 0.0) * (static_cast<double>(gmap[i]) * t) + k.dark_mu;
+        dst[i] = k(mu, detail::mix64(key + i));
+      }
+      return;
+    }
     for (int x = 0; x < width_; ++x) {
       std::size_t p = p0 + x;
-      double g = static_cast<double>(gmap[p]) * k.t;
+      double g = static_cast<double>(gmap[p]) * t;
       for (int c = 0; c < channels; ++c) {
         std::size_t i = p * channels + c;
-        double mu = std::max(static_cast<double>(in[i]), 0.0) * g + k.dark_mu;
-        dst[i] = chain(k, response_, linear, mu, detail::mix64(key + i), normal);
+        dst[i] = k(std::max(static_cast<double>(in[i]), 0.0) * g + k.dark_mu, detail::mix64(key + i));
       }
     }
   });
   // Hot pixels: the same noise bits, a higher dark current.
   double hot_mu = p_.hot_pixel_dark_e_per_s * s.exposure_s;
   for (std::uint32_t p : hot_) {
-    double g = static_cast<double>(gmap[p]) * k.t;
+    double g = static_cast<double>(gmap[p]) * t;
     for (int c = 0; c < channels; ++c) {
       std::size_t i = static_cast<std::size_t>(p) * channels + c;
-      double mu = std::max(static_cast<double>(in[i]), 0.0) * g + hot_mu;
-      dst[i] = chain(k, response_, linear, mu, detail::mix64(key + i), normal);
+      dst[i] = k(std::max(static_cast<double>(in[i]), 0.0) * g + hot_mu, detail::mix64(key + i));
     }
   }
   return out;

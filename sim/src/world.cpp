@@ -102,14 +102,26 @@ struct Light {
   Vec3 pos;
   Vec3 axis;
   double i0 = 0;
-  double exponent = 1;
   Rgb color = Rgb::Ones();
 
-  double profile(double cos_off_axis) const {
-    if (exponent == 0) return 1.0;
-    if (cos_off_axis <= 0) return 0.0;
-    return exponent == 1 ? cos_off_axis : std::pow(cos_off_axis, exponent);
+  void set_exponent(double n) {
+    exponent_ = n;
+    double twice = 2.0 * n;
+    twice_exponent_ = (twice == std::round(twice) && twice <= 32.0) ? static_cast<int>(twice) : -1;
   }
+  // cos^n of the angle off the LED axis; half-integer n without pow().
+  double profile(double cos_off_axis) const {
+    if (exponent_ == 0) return 1.0;
+    if (cos_off_axis <= 0) return 0.0;
+    if (twice_exponent_ < 0) return std::pow(cos_off_axis, exponent_);
+    double v = (twice_exponent_ & 1) ? std::sqrt(cos_off_axis) : 1.0;
+    for (int k = 0; k < twice_exponent_ / 2; ++k) v *= cos_off_axis;
+    return v;
+  }
+
+ private:
+  double exponent_ = 1;
+  int twice_exponent_ = 2;
 };
 
 }  // namespace
@@ -356,7 +368,7 @@ Vec3 SimWorld::led_axis_rig(double table_angle_deg) const {
 
 double SimWorld::led_profile(double off_axis_rad) const {
   Light l;
-  l.exponent = config_.led.profile_exponent;
+  l.set_exponent(config_.led.profile_exponent);
   return l.profile(std::cos(off_axis_rad));
 }
 
@@ -482,13 +494,16 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
   light.pos = led_position_rig(angle_deg);
   light.axis = led_axis_rig(angle_deg);
   light.i0 = config_.led.intensity_w_sr;
-  light.exponent = config_.led.profile_exponent;
+  light.set_exponent(config_.led.profile_exponent);
   light.color = Rgb(config_.led.color[0], config_.led.color[1], config_.led.color[2]);
   const auto& mw = config_.camera.mono_weights;
   const Rgb mono(mw[0], mw[1], mw[2]);
   const brdf::Brdf& f_paint = *st.paint.brdf;
   const bool sparkle = opt.sparkle && st.flakes;
   const brdf::Brdf* f_flakes = sparkle ? st.paint.sparkle->flake_part.get() : nullptr;
+  // With the rest of the BRDF given separately: f = steady + s flakes (one evaluation of
+  // each part instead of the whole BRDF plus the flake part).
+  const brdf::Brdf* f_steady = sparkle ? st.paint.sparkle->steady_part.get() : nullptr;
 
   auto write = [&](std::size_t i, const Rgb& v) {
     if (ch == 1) {
@@ -512,7 +527,6 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
     if (prof <= 0) return Rgb::Zero();
     Mat3 frame = frame_from_normal(n);
     Vec3 wi_l = frame.transpose() * wi, wo_l = frame.transpose() * wo;
-    Rgb f = f_paint.eval(wi_l, wo_l);
     if (f_flakes && j >= 0) {
       Vec3 hv = (wi + wo).normalized();
       double lambda = st.flakes_per_m2 * s.interior_area[static_cast<std::size_t>(j)] * (*st.cap)(n.dot(hv));
@@ -524,23 +538,34 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
         if (hf.x() * nf[0] + hf.y() * nf[1] + hf.z() * nf[2] >= cos_l) ++k;
       }
       double factor = (k + st.floor) / (lambda + st.floor);
-      f += (factor - 1.0) * f_flakes->eval(wi_l, wo_l);
+      Rgb f = f_steady ? Rgb(f_steady->eval(wi_l, wo_l) + factor * f_flakes->eval(wi_l, wo_l))
+                       : Rgb(f_paint.eval(wi_l, wo_l) + (factor - 1.0) * f_flakes->eval(wi_l, wo_l));
+      return f * light.color * (light.i0 * prof * cos_i / r2);
     }
-    return f * light.color * (light.i0 * prof * cos_i / r2);
+    return f_paint.eval(wi_l, wo_l) * light.color * (light.i0 * prof * cos_i / r2);
   };
 
+  // Felt (single precision: it only needs to be right to ~1e-6 relative).
+  const Vec3f led_f = light.pos.cast<float>(), axis_f = light.axis.cast<float>(), c_f = s.c.cast<float>();
+  const float r2_sphere = static_cast<float>(s.r * s.r);
   auto shade_bg = [&](std::size_t i) -> Rgb {
     const Scene::Bg& b = s.bg[i];
     if (b.albedo <= 0) return Rgb::Zero();
-    Vec3 p = b.p.cast<double>();
-    Vec3 d = light.pos - p;
-    double r2 = d.squaredNorm();
-    Vec3 wi = d / std::sqrt(r2);
-    double cos_i = b.n.cast<double>().dot(wi);
+    Vec3f d = led_f - b.p;
+    float r2 = d.squaredNorm();
+    float inv = 1.0f / std::sqrt(r2);
+    float cos_i = b.n.dot(d) * inv;
     if (cos_i <= 0) return Rgb::Zero();
-    double prof = light.profile(-wi.dot(light.axis));
+    double prof = light.profile(-axis_f.dot(d) * inv);
     if (prof <= 0) return Rgb::Zero();
-    if (segment_hits_sphere(p, light.pos, s.c, s.r)) return Rgb::Zero();
+    // The sphere's shadow: does the segment to the LED pass through it?
+    Vec3f oc = b.p - c_f;
+    float bb = oc.dot(d) * inv;
+    float disc = bb * bb - (oc.squaredNorm() - r2_sphere);
+    if (disc > 0) {
+      float sq = std::sqrt(disc);
+      if (-bb + sq > 1e-6f && -bb - sq < r2 * inv) return Rgb::Zero();
+    }
     return light.color * (b.albedo / kPi * light.i0 * prof * cos_i / r2);
   };
 
@@ -578,79 +603,87 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
     Cylinder post{Vec3(light.pos.x(), light.pos.y(), s.table_z), Vec3::UnitZ(), light.pos.z() - s.table_z, post_r};
     double bar_start = std::min(s.table_radius, arm_r);
     Cylinder bar{Vec3(0, 0, s.table_z + post_r) + bar_start * radial, radial, arm_r - bar_start, post_r};
-    Vec3 lo = light.pos.cwiseMin(post.a).cwiseMin(bar.a) - Vec3::Constant(post_r);
-    Vec3 hi = light.pos.cwiseMax(post.a).cwiseMax(bar.a) + Vec3::Constant(post_r);
-    // Bounding rectangle in the normalised image plane.
+    // Pixel rectangle that holds the image of an axis-aligned rig box (empty: x0 > x1).
+    struct Box {
+      int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
+      bool contains(int x, int y) const { return x >= x0 && x <= x1 && y >= y0 && y <= y1; }
+    };
     const Rigid3& cfr = cam_from_rig();
-    Vec2 nlo(kInfD, kInfD), nhi(-kInfD, -kInfD);
-    bool behind = false;
-    for (int k = 0; k < 8; ++k) {
-      Vec3 corner((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z());
-      Vec3 pc = cfr * corner;
-      if (pc.z() <= 1e-6) {
-        behind = true;
-        break;
+    auto pixel_box = [&](const Vec3& lo, const Vec3& hi) {
+      Box b;
+      Vec2 nlo(kInfD, kInfD), nhi(-kInfD, -kInfD);
+      for (int k = 0; k < 8; ++k) {
+        Vec3 pc = cfr * Vec3((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z());
+        if (pc.z() <= 1e-6) return Box{0, 0, s.w - 1, s.h - 1};  // reaches behind the camera: test everything
+        Vec2 xn(pc.x() / pc.z(), pc.y() / pc.z());
+        nlo = nlo.cwiseMin(xn);
+        nhi = nhi.cwiseMax(xn);
       }
-      Vec2 xn(pc.x() / pc.z(), pc.y() / pc.z());
-      nlo = nlo.cwiseMin(xn);
-      nhi = nhi.cwiseMax(xn);
-    }
-    int x0 = 0, y0 = 0, x1 = s.w - 1, y1 = s.h - 1;
-    bool visible = true;
-    if (!behind) {
-      visible = !(nhi.x() < s.norm_min.x() || nlo.x() > s.norm_max.x() || nhi.y() < s.norm_min.y() ||
-                  nlo.y() > s.norm_max.y());
-      if (visible) {
-        nlo = nlo.cwiseMax(s.norm_min);
-        nhi = nhi.cwiseMin(s.norm_max);
-        double px0 = kInfD, py0 = kInfD, px1 = -kInfD, py1 = -kInfD;
-        for (int k = 0; k < 9; ++k) {
-          Vec2 xn(nlo.x() + (nhi.x() - nlo.x()) * (k % 3) / 2.0, nlo.y() + (nhi.y() - nlo.y()) * (k / 3) / 2.0);
-          Vec2 px = camera_->project(Vec3(xn.x(), xn.y(), 1.0));
-          px0 = std::min(px0, px.x());
-          py0 = std::min(py0, px.y());
-          px1 = std::max(px1, px.x());
-          py1 = std::max(py1, px.y());
-        }
-        x0 = std::max(0, static_cast<int>(std::floor(px0)) - 3);
-        y0 = std::max(0, static_cast<int>(std::floor(py0)) - 3);
-        x1 = std::min(s.w - 1, static_cast<int>(std::ceil(px1)) + 3);
-        y1 = std::min(s.h - 1, static_cast<int>(std::ceil(py1)) + 3);
+      if (nhi.x() < s.norm_min.x() || nlo.x() > s.norm_max.x() || nhi.y() < s.norm_min.y() || nlo.y() > s.norm_max.y())
+        return b;
+      // Clip in the undistorted plane (where the distortion is monotone), then map to pixels.
+      nlo = nlo.cwiseMax(s.norm_min);
+      nhi = nhi.cwiseMin(s.norm_max);
+      double px0 = kInfD, py0 = kInfD, px1 = -kInfD, py1 = -kInfD;
+      for (int k = 0; k < 9; ++k) {
+        Vec2 xn(nlo.x() + (nhi.x() - nlo.x()) * (k % 3) / 2.0, nlo.y() + (nhi.y() - nlo.y()) * (k / 3) / 2.0);
+        Vec2 px = camera_->project(Vec3(xn.x(), xn.y(), 1.0));
+        px0 = std::min(px0, px.x());
+        py0 = std::min(py0, px.y());
+        px1 = std::max(px1, px.x());
+        py1 = std::max(py1, px.y());
       }
-    }
-    if (visible && x0 <= x1 && y0 <= y1) {
-      detail::parallel_rows(y1 - y0 + 1, opt.threads, [&](int row) {
-        int y = y0 + row;
-        for (int x = x0; x <= x1; ++x) {
-          std::size_t i = static_cast<std::size_t>(y) * s.w + x;
-          Vec3 d = s.ray(x, y, 0.5, 0.5);
-          double best = s.depth[i], t;
-          Vec3 n, bn;
-          bool hit = false;
-          if (hit_cylinder(s.cam_centre, d, post, &t, &n) && t < best) {
-            best = t;
-            bn = n;
-            hit = true;
-          }
-          if (hit_cylinder(s.cam_centre, d, bar, &t, &n) && t < best) {
-            best = t;
-            bn = n;
-            hit = true;
-          }
-          if (!hit) continue;
-          Vec3 p = s.cam_centre + best * d;
-          Vec3 dl = light.pos - p;
-          double r2 = dl.squaredNorm();
-          Vec3 wi = dl / std::sqrt(r2);
-          double cos_i = bn.dot(wi);
-          double prof = light.profile(-wi.dot(light.axis));
-          Rgb v = Rgb::Zero();
-          if (cos_i > 0 && prof > 0 && !segment_hits_sphere(p, light.pos, s.c, s.r))
-            v = light.color * (s.felt / kPi * light.i0 * prof * cos_i / r2);
-          write(i, v);
-        }
+      b.x0 = std::max(0, static_cast<int>(std::floor(px0)) - 3);
+      b.y0 = std::max(0, static_cast<int>(std::floor(py0)) - 3);
+      b.x1 = std::min(s.w - 1, static_cast<int>(std::ceil(px1)) + 3);
+      b.y1 = std::min(s.h - 1, static_cast<int>(std::ceil(py1)) + 3);
+      return b;
+    };
+    const Vec3 pr = Vec3::Constant(post_r);
+    const Vec3 post_top(post.a.x(), post.a.y(), light.pos.z());
+    const Vec3 bar_end = bar.a + bar.length * bar.axis;
+    const Box post_box = pixel_box(post.a.cwiseMin(post_top) - pr, post.a.cwiseMax(post_top) + pr);
+    const Box bar_box = pixel_box(bar.a.cwiseMin(bar_end) - pr, bar.a.cwiseMax(bar_end) + pr);
+    // Shades pixel (x, y) if the post (and/or the bar) is the nearest surface there.
+    auto arm_pixel = [&](int x, int y, bool test_post, bool test_bar) {
+      std::size_t i = static_cast<std::size_t>(y) * s.w + x;
+      Vec3 d = s.ray(x, y, 0.5, 0.5);
+      double best = s.depth[i], t;
+      Vec3 n, bn;
+      bool hit = false;
+      if (test_post && hit_cylinder(s.cam_centre, d, post, &t, &n) && t < best) {
+        best = t;
+        bn = n;
+        hit = true;
+      }
+      if (test_bar && hit_cylinder(s.cam_centre, d, bar, &t, &n) && t < best) {
+        best = t;
+        bn = n;
+        hit = true;
+      }
+      if (!hit) return;
+      Vec3 p = s.cam_centre + best * d;
+      Vec3 dl = light.pos - p;
+      double r2 = dl.squaredNorm();
+      Vec3 wi = dl / std::sqrt(r2);
+      double cos_i = bn.dot(wi);
+      double prof = light.profile(-wi.dot(light.axis));
+      Rgb v = Rgb::Zero();
+      if (cos_i > 0 && prof > 0 && !segment_hits_sphere(p, light.pos, s.c, s.r))
+        v = light.color * (s.felt / kPi * light.i0 * prof * cos_i / r2);
+      write(i, v);
+    };
+    if (post_box.x0 <= post_box.x1 && post_box.y0 <= post_box.y1)
+      detail::parallel_rows(post_box.y1 - post_box.y0 + 1, opt.threads, [&](int row) {
+        int y = post_box.y0 + row;
+        for (int x = post_box.x0; x <= post_box.x1; ++x) arm_pixel(x, y, true, bar_box.contains(x, y));
       });
-    }
+    if (bar_box.x0 <= bar_box.x1 && bar_box.y0 <= bar_box.y1)
+      detail::parallel_rows(bar_box.y1 - bar_box.y0 + 1, opt.threads, [&](int row) {
+        int y = bar_box.y0 + row;
+        for (int x = bar_box.x0; x <= bar_box.x1; ++x)
+          if (!post_box.contains(x, y)) arm_pixel(x, y, false, true);
+      });
   }
   camera_->blur(out, opt.threads);
   return out;

@@ -36,6 +36,8 @@ struct Sparkle {
   double roughness = 0.15;    // Beckmann m of the flake normals
   double lifetime_deg = 6.5;  // a flake glints while angle(normal, h) < lifetime
   std::shared_ptr<const brdf::Brdf> flake_part;
+  // Optional: the rest of the BRDF (brdf - flake_part), which makes rendering faster.
+  std::shared_ptr<const brdf::Brdf> steady_part;
 };
 
 struct SimPaint {
