@@ -3,6 +3,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "paintlab/core/error.h"
+#include "paintlab/sim/paint.h"
 #include "paintlab/sim/world.h"
 #include "sim_test_util.h"
 #include "test_util.h"
@@ -43,7 +44,7 @@ Vec3 cv_ray_cam(const sim::SimWorld& w, double u, double v, Vec2* xn_out = nullp
 }
 
 // The radiance the test predicts for a sphere pixel, from the formulas of the design.
-bool predict_sphere(const sim::SimWorld& w, const sim::test::TestLobeBrdf& f, double angle_deg, int x, int y,
+bool predict_sphere(const sim::SimWorld& w, const brdf::Brdf& f, double angle_deg, int x, int y,
                     brdf::Rgb* out) {
   const sim::SimConfig& c = w.config();
   Rigid3 rig_from_cam = w.cam_from_rig().inverse();
@@ -126,6 +127,24 @@ TEST(Render, SpherePixelEqualsTheAnalyticPrediction) {
   double sigma = G * 1.12 * std::sqrt(mu + 36.0) / std::sqrt(frames) + 0.3;
   EXPECT_NEAR(sum / frames, expected_raw, 4.0 * sigma) << "sigma of the mean " << sigma << " DN";
   EXPECT_NEAR(world.sensor().expected_raw(radiance, x, y, t, gain_db), expected_raw, 1e-3 * expected_raw);
+}
+
+TEST(Render, WhiteReferenceSphereHasItsAlbedo) {
+  sim::SimWorld world(analytic_config());
+  ImageF img = world.render_with(sim::reference_paint(0.9), 25.0, true);
+  brdf::Lambertian white(brdf::Rgb::Constant(0.9));
+  Vec2 c = world.camera().project(world.sphere_centre_cam());
+  const auto& mw = world.config().camera.mono_weights;
+  int checked = 0;
+  for (int dx : {-30, 0, 20, 40}) {
+    brdf::Rgb e;
+    int x = static_cast<int>(c.x()) + dx, y = static_cast<int>(c.y()) - 5;
+    if (!predict_sphere(world, white, 25.0, x, y, &e)) continue;
+    ++checked;
+    EXPECT_THAT(img.at(x, y), test::NearRel(mw[0] * e[0] + mw[1] * e[1] + mw[2] * e[2], 1e-5));
+  }
+  EXPECT_GE(checked, 3);
+  EXPECT_THROW(sim::reference_paint(1.5), DataError);
 }
 
 TEST(Render, LedTruthAccessors) {
