@@ -26,5 +26,6 @@ void register_paint_commands(CLI::App& app);
 void register_sim_commands(CLI::App& app);
 void register_sim_serve_command(CLI::App& app);
 void register_devices_commands(CLI::App& app);
+void register_measure_commands(CLI::App& app);  // paintlab measure (cmd_measure.cpp)
 
 }  // namespace paintlab::app

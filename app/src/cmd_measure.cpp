@@ -1,0 +1,181 @@
+// paintlab measure: the light sweep of one sample (issue "Measurement sessions").
+//   paintlab measure --rig R --sample NAME --out DIR [--notes TEXT] [--keep-raw] [--adaptive]
+//   paintlab measure --resume DIR
+#include <atomic>
+#include <csignal>
+#include <filesystem>
+#include <fmt/format.h>
+#include <optional>
+
+#include "cli.h"
+#include "measure_support.h"
+#include "paintlab/acquisition/adaptive.h"
+#include "paintlab/acquisition/hdr_merge.h"
+#include "paintlab/acquisition/runner.h"
+#include "paintlab/acquisition/session.h"
+#include "paintlab/calibration/record.h"
+#include <spdlog/spdlog.h>
+
+#include "paintlab/core/error.h"
+#include "paintlab/core/hash.h"
+#include "paintlab/core/progress.h"
+#include "paintlab/core/rig.h"
+#include "paintlab/core/version.h"
+#include "rig_devices.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::app {
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void on_stop_signal(int) { g_stop = true; }
+
+// Installs SIGINT/SIGTERM handlers that ask the runner to stop; restores the old ones.
+class StopSignals {
+ public:
+  StopSignals() {
+    g_stop = false;
+    struct sigaction sa {};
+    sa.sa_handler = on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+struct MeasureArgs {
+  std::string rig;
+  std::string sample;
+  std::string out;
+  std::string resume;
+  std::string notes;
+  std::string operator_name;
+  std::string sim_paint;
+  bool keep_raw = false;
+  bool adaptive = false;
+  bool uncalibrated = false;
+  int max_retries = 3;
+};
+
+int run_measure(const MeasureArgs& a) {
+  const bool resume = !a.resume.empty();
+  if (resume && (!a.out.empty() || !a.sample.empty()))
+    throw UsageError("--resume DIR continues a session: do not combine it with --out or --sample");
+  if (!resume && (a.rig.empty() || a.sample.empty() || a.out.empty()))
+    throw UsageError("a new measurement needs --rig, --sample and --out (or --resume DIR)");
+  if (!resume && (a.sample.empty() || a.sample.find_first_of("/\\\n") != std::string::npos))
+    throw UsageError("--sample must be a non-empty name without '/', '\\' or newlines");
+
+  std::optional<acq::SessionDir> session;
+  std::string rig_path = a.rig;
+  if (resume) {
+    session.emplace(acq::SessionDir::open(a.resume));
+    if (rig_path.empty()) rig_path = session->manifest().rig_file;
+  }
+  RigConfig rig = RigConfig::load(rig_path);
+  if (resume && session->manifest().rig_sha256 != sha256_file(rig.file))
+    spdlog::warn("{} changed since the session started; the session's plan is kept, devices and calibration come "
+                 "from the current file",
+                 rig.file.string());
+
+  MeasureSetup setup = prepare_measurement(rig, a.uncalibrated);
+
+  StopSignals signals;  // before the devices, so GpiodLight chains to it
+  RigDevices devices = open_rig_devices(rig);
+  Json sim_paint_json;
+  if (devices.sim) {
+    if (resume) {
+      sim_paint_json = session->manifest().options.value("sim_paint", Json());
+      if (sim_paint_json.is_null())
+        throw DataError(a.resume + "/session.json: this simulated session does not record its sim paint");
+    } else {
+      sim_paint_json = load_sim_paint_json(a.sim_paint);
+    }
+    apply_sim_paint(devices, sim_paint_json, session ? session->dir() : fs::path(a.out));
+  } else if (!a.sim_paint.empty()) {
+    throw UsageError("--sim-paint applies only to a simulated rig (devices of kind \"sim\")");
+  }
+  CameraPreparation cam = prepare_camera(*devices.camera, rig);
+
+  if (!resume) {
+    acq::SessionManifest m;
+    m.sample = a.sample;
+    m.notes = a.notes;
+    m.operator_name = a.operator_name;
+    m.created_utc = utc_timestamp();
+    m.software_version = software_version();
+    m.rig_name = rig.name;
+    m.rig_file = rig.file.string();
+    m.rig_sha256 = sha256_file(rig.file);
+    m.angles_deg = rig.plan.angles_deg();
+    m.exposures_s = rig.plan.exposures_s;
+    m.settle_s = rig.plan.settle_s;
+    m.gain_db = cam.gain_db;
+    m.calibration = setup.calibration_checksums;
+    m.devices = {{"turntable", {{"id", devices.turntable->id()}}},
+                 {"light", {{"id", devices.light->id()}}},
+                 {"camera", {{"id", devices.camera->id()}, {"serial", devices.camera->serial()}}}};
+    m.options = {{"keep_raw", a.keep_raw}, {"adaptive", a.adaptive}, {"uncalibrated", a.uncalibrated},
+                 {"pixel_format", dev::to_string(cam.format)}};
+    if (devices.sim) m.options["sim_paint"] = sim_paint_json;
+    session.emplace(acq::SessionDir::create(a.out, std::move(m)));
+  }
+
+  acq::RunnerOptions ro;
+  ro.keep_raw = resume ? session->manifest().options.value("keep_raw", false) : a.keep_raw;
+  ro.max_retries = a.max_retries;
+  const bool adaptive = resume ? session->manifest().options.value("adaptive", false) : a.adaptive;
+  MergeState merge(setup.hdr, dev::bit_depth(cam.format));
+  acq::Runner runner(*session, {*devices.turntable, *devices.light, *devices.camera, *devices.clock},
+                     merge.function());
+  std::unique_ptr<acq::AdaptiveBracketing> planner;
+  if (adaptive) {
+    planner = make_adaptive_planner(setup, rig, cam);
+    runner.set_planner(planner.get());
+  }
+  Progress progress("measure", session->position_count(), "pos");
+  runner.set_progress(&progress);
+  say(fmt::format("measuring sample '{}' on rig '{}': {} positions x {} exposures -> {}", session->manifest().sample,
+                  rig.name, session->position_count(), session->manifest().exposures_s.size(),
+                  session->dir().string()));
+  acq::RunSummary s = runner.run(g_stop);
+  progress.finish();
+  print_run_summary(s, *session);
+  if (s.complete) return kExitOk;
+  return kExitFailed;
+}
+
+}  // namespace
+
+void register_measure_commands(CLI::App& app) {
+  auto a = std::make_shared<MeasureArgs>();
+  CLI::App* m = app.add_subcommand(
+      "measure",
+      "Measure a sample: sweep the light, capture exposure brackets, merge them into HDR images.\n"
+      "Writes DIR/session.json, DIR/journal.jsonl and DIR/hdr/pos_XXX.exr. Ctrl-C stops safely\n"
+      "(LED off, table stopped); `paintlab measure --resume DIR` continues where it stopped.");
+  m->add_option("--rig", a->rig, "rig.toml (for --resume: overrides the rig file recorded in the session)");
+  m->add_option("--sample", a->sample, "sample name (recorded in the session)");
+  m->add_option("--out", a->out, "session folder to create (must be new or empty)");
+  m->add_option("--resume", a->resume, "continue the session in this folder");
+  m->add_option("--notes", a->notes, "free-text notes recorded in session.json");
+  m->add_option("--operator", a->operator_name, "who measured (recorded in session.json)");
+  m->add_flag("--keep-raw", a->keep_raw, "also keep every raw frame (16-bit PNG under DIR/raw/)");
+  m->add_flag("--uncalibrated", a->uncalibrated,
+              "merge without calib/response.json and dark.json (a linear camera is assumed; not for real measurements)");
+  m->add_option("--sim-paint", a->sim_paint, "simulated rig only: paint .toml on the simulated sphere (default: the built-in silver metallic)");
+  m->add_option("--max-retries", a->max_retries, "retries of a failed device operation before stopping safely")
+      ->check(CLI::Range(0, 20));
+  on_run(m, [a] { return run_measure(*a); });
+}
+
+}  // namespace paintlab::app
