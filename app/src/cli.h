@@ -27,5 +27,6 @@ void register_sim_commands(CLI::App& app);
 void register_sim_serve_command(CLI::App& app);
 void register_devices_commands(CLI::App& app);
 void register_measure_commands(CLI::App& app);  // paintlab measure (cmd_measure.cpp)
+void register_fit_commands(CLI::App& app);      // paintlab fit, paintlab bin (cmd_fit.cpp)
 
 }  // namespace paintlab::app

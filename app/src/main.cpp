@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   app::register_sim_commands(app);
   app::register_sim_serve_command(app);
   app::register_devices_commands(app);
+  app::register_fit_commands(app);
   app::register_measure_commands(app);
 
   try {

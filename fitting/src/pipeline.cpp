@@ -1,0 +1,92 @@
+#include "paintlab/fitting/pipeline.h"
+
+#include <cctype>
+#include <fmt/format.h>
+
+#include "paintlab/core/error.h"
+#include "paintlab/fitting/coverage.h"
+
+namespace paintlab::fit {
+
+const char* to_string(FitModel m) {
+  switch (m) {
+    case FitModel::CookTorrance: return "cook-torrance";
+  }
+  return "?";
+}
+
+FitModel fit_model_from_string(std::string_view s, std::string_view where) {
+  if (s == "cook-torrance") return FitModel::CookTorrance;
+  throw DataError(fmt::format("{}: unknown model '{}' (expected cook-torrance)", where, s));
+}
+
+std::string paint_name_from(std::string_view text) {
+  std::string out;
+  for (char ch : text) {
+    const unsigned char u = static_cast<unsigned char>(ch);
+    const char lower = static_cast<char>(std::tolower(u));
+    const bool ok = (lower >= 'a' && lower <= 'z') || (lower >= '0' && lower <= '9') || lower == '.' ||
+                    lower == '_' || lower == '-';
+    out += ok ? lower : '-';
+  }
+  if (out.empty()) out = "fitted";
+  return out;
+}
+
+namespace {
+
+std::string region_lines(const ResidualReport& r) {
+  std::string s = fmt::format("  residual log-RMS  {:.4f} over {} bins ({} values)", r.total.log_rms, r.total.bins,
+                              r.total.residuals);
+  if (std::isfinite(r.total.noise_floor)) s += fmt::format(", noise floor {:.4f}", r.total.noise_floor);
+  s += "\n";
+  for (int k = 0; k < kRegionCount; ++k) {
+    const RegionResidual& g = r.regions[k];
+    s += fmt::format("    {:<8} {:.4f} over {} bins", to_string(static_cast<Region>(k)), g.log_rms, g.bins);
+    if (std::isfinite(g.noise_floor)) s += fmt::format(" (floor {:.4f})", g.noise_floor);
+    s += "\n";
+  }
+  return s;
+}
+
+std::string ct_report(const CookTorranceFit& f) {
+  std::string s = fmt::format("cook-torrance, {} lobe{}\n", f.params.lobes.size(), f.params.lobes.size() == 1 ? "" : "s");
+  s += fmt::format("  kd                [{:.5g}, {:.5g}, {:.5g}] +- [{:.2g}, {:.2g}, {:.2g}]\n", f.params.kd[0],
+                   f.params.kd[1], f.params.kd[2], f.stddev.kd[0], f.stddev.kd[1], f.stddev.kd[2]);
+  for (std::size_t l = 0; l < f.params.lobes.size(); ++l) {
+    const brdf::CtLobe& p = f.params.lobes[l];
+    const brdf::CtLobe& e = f.stddev.lobes[l];
+    s += fmt::format("  lobe {}            ks [{:.5g}, {:.5g}, {:.5g}]  m {:.5g} +- {:.2g}  r {:.4g} +- {:.2g}\n", l + 1,
+                     p.ks[0], p.ks[1], p.ks[2], p.m, e.m, p.r, e.r);
+  }
+  s += region_lines(f.residual);
+  s += fmt::format("  solver            {} iterations, {} residual blocks, cost {:.6g} -> {:.6g}, {:.2f} s, {} starts\n",
+                   f.summary.iterations, f.summary.residual_blocks, f.summary.initial_cost, f.summary.final_cost,
+                   f.summary.time_s, f.summary.starts.size());
+  return s;
+}
+
+}  // namespace
+
+FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noise_variance, const FitRequest& request,
+                     const Json& input) {
+  FitOutcome out;
+  switch (request.model) {
+    case FitModel::CookTorrance: {
+      const FitData data = prepare_fit_data(table, request.cook_torrance.data, noise_variance);
+      const CookTorranceFit f = fit_cook_torrance(data, request.cook_torrance);
+      if (!f.summary.converged)
+        throw JobError(fmt::format("the cook-torrance fit did not converge ({}) after {} iterations", f.summary.termination,
+                                   f.summary.iterations));
+      out.fit = f.to_json(request.name);
+      out.report = ct_report(f);
+      break;
+    }
+  }
+  Json in = input;
+  in["coverage"] = coverage(table).to_json();
+  out.fit["input"] = in;
+  return out;
+}
+
+}  // namespace paintlab::fit
