@@ -1,0 +1,116 @@
+#pragma once
+// AxF-like paint files (HDF5, docs/axf-like.md): a versioned layout that mirrors X-Rite's
+// AxF car-paint representation (clear-coat ior, diffuse, per-lobe coefficient / spread /
+// F0, the colour table over (theta_hbar, theta_ibar), flake statistics) and also holds the
+// Cook-Torrance fit with its standard deviations, the fit quality and the provenance.
+// Every convention (where each 1/pi is, Beckmann normalisation, linear values, colour-table
+// indexing and the domain it is filled over) is written into the file as attributes of
+// /conventions, and the validator checks them word for word.
+//
+// A paint that is only a Cook-Torrance fit exports without /carpaint (the AxF car-paint
+// form has achromatic lobes under one colour table, which an RGB Cook-Torrance fit does
+// not reduce to exactly); /cook_torrance then is the paint.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "paintlab/brdf/paint.h"
+#include "paintlab/core/json.h"
+#include "paintlab/fitting/ct_fit.h"
+
+namespace paintlab::fit {
+
+inline constexpr const char* kAxfFormat = "paintlab-axf-like";
+inline constexpr int kAxfFormatVersion = 1;
+// The file holding a whole library (`paintlab library export --h5`): /paints/<name> groups,
+// each with the layout of one AxF-like file.
+inline constexpr const char* kAxfLibraryFormat = "paintlab-axf-library";
+
+// The Cook-Torrance form of the paint (a fit, or a Cook-Torrance paint file).
+struct AxfCookTorrance {
+  brdf::CookTorranceParams params;
+  std::optional<CookTorranceStddev> stddev;  // per-parameter standard deviations of a fit
+  bool operator==(const AxfCookTorrance& o) const;
+};
+
+// How well the fit matches the measurement (fit.json "residual").
+struct AxfFitQuality {
+  double log_rms = 0;            // RMS of the log residuals over the bins used, >= 0
+  std::int64_t bins_used = 0;    // >= 0
+  bool converged = true;         // the solver reported convergence
+  Json residual = Json::object();  // the whole "residual" object as the fit reported it
+  bool operator==(const AxfFitQuality& o) const;
+};
+
+// Where the paint comes from. Empty strings mean "unknown" (a paint written by hand).
+struct AxfProvenance {
+  std::string sample_name;       // the measured sample
+  std::string measured_utc;      // when it was measured (ISO 8601 UTC)
+  std::string exported_utc;      // when this file was written (filled by the writer if empty)
+  std::string rig_name;
+  // Calibration files used for the measurement: (file name, SHA-256 hex).
+  std::vector<std::pair<std::string, std::string>> calibration_sha256;
+  std::string session_sha256;    // SHA-256 of session.json followed by journal.jsonl
+  std::string software_version;  // of the software that wrote the file (filled if empty)
+  std::string source;            // what was exported: session folder, fit.json, paint file
+  bool operator==(const AxfProvenance&) const = default;
+};
+
+struct AxfPaint {
+  std::string name;    // [a-z0-9._-]+
+  std::string model;   // the paint's model: "axf-carpaint" or "cook-torrance"
+  std::optional<brdf::AxfCarPaintParams> carpaint;   // required when model == "axf-carpaint"
+  std::optional<AxfCookTorrance> cook_torrance;      // required when model == "cook-torrance"
+  std::optional<brdf::FlakeSpec> flakes;
+  std::optional<AxfFitQuality> fit_quality;
+  AxfProvenance provenance;
+
+  // The paint itself (model chooses /carpaint or /cook_torrance), ready for make_brdf().
+  brdf::PaintSpec paint_spec() const;
+  bool operator==(const AxfPaint&) const = default;
+};
+
+// The AxF-like form of a paint file's paint. Cook-torrance and axf-carpaint paints only;
+// DataError for the others ("layered-pearlescent paints have no AxF-like form: fit it").
+AxfPaint axf_from_paint(const brdf::PaintSpec& spec);
+// The AxF-like form of a fit.json object (DESIGN.md "fit" plus "stddev", "summary").
+// DataError naming `where` and the key.
+AxfPaint axf_from_fit_json(const Json& fit, const std::string& where);
+
+// Writes the file atomically (temp file + rename: never a partial file). Checks the paint
+// first (DataError naming the field, nothing written). Fills exported_utc and
+// software_version when empty.
+void write_axf_file(const std::filesystem::path& path, const AxfPaint& paint);
+// Reads and validates. Throws IoError (cannot open) or DataError naming the file and the
+// first wrong field ("FILE: /carpaint/ct_spreads: value 1.3 at index 1 out of range (0, 1)").
+AxfPaint read_axf_file(const std::filesystem::path& path);
+
+// Every problem found, each naming the HDF5 path of the field.
+struct AxfValidation {
+  std::string format;                 // kAxfFormat or kAxfLibraryFormat (when readable)
+  std::vector<std::string> paints;    // names of the paints found
+  std::vector<std::string> problems;  // empty: valid
+  bool ok() const { return problems.empty(); }
+};
+// Checks every field, shape, range and convention of an AxF-like file or a library file.
+// Never throws for bad content; a file that is not HDF5 (or truncated) is one problem.
+AxfValidation validate_axf_file(const std::filesystem::path& path);
+
+// A library file: every paint under /paints/<name> (atomic write).
+void write_axf_library_file(const std::filesystem::path& path, const std::vector<AxfPaint>& paints);
+std::vector<AxfPaint> read_axf_library_file(const std::filesystem::path& path);
+
+// Checks an AxfPaint built in code (DataError naming the field as the file would).
+void check_axf_paint(const AxfPaint& paint);
+
+// Lines a technician reads: model, parameters (with standard deviations), fit quality,
+// provenance.
+std::string describe_axf(const AxfPaint& paint);
+
+// The convention attributes of /conventions (name, text), exactly as written and checked.
+const std::vector<std::pair<std::string, std::string>>& axf_conventions();
+
+}  // namespace paintlab::fit

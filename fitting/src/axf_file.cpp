@@ -1,0 +1,877 @@
+#include "paintlab/fitting/axf_file.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <numbers>
+#include <set>
+
+#include "axf_file_h5.h"
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/version.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::fit {
+
+namespace {
+
+using h5::DoubleArray;
+using h5::Handle;
+using h5::Problems;
+using h5::Writer;
+
+// The conventions of format version 1, written into /conventions and checked word for
+// word by the validator (docs/axf-like.md explains each).
+const std::vector<std::pair<std::string, std::string>> kConventions = {
+    {"brdf_unit", "1/sr"},
+    {"frame", "local shading frame, normal n = +z; i points to the light, o to the camera; angles in radians"},
+    {"values", "linear camera RGB: no gamma, no sRGB transfer curve, no tone mapping"},
+    {"beckmann_d",
+     "D(m, theta_h) = exp(-tan^2(theta_h) / m^2) / (m^2 cos^4(theta_h)), WITHOUT the 1/pi of the normalised "
+     "Beckmann distribution"},
+    {"specular_lobe",
+     "lobe = coefficient * F(F0, h.o) * D(spread, theta_h) * G / (pi (n.i)(n.o)); the pi of this denominator is "
+     "the 1/pi that D lacks"},
+    {"fresnel", "lobes: Schlick F(F0, c) = F0 + (1 - F0)(1 - c)^5 with c = h.o"},
+    {"geometry", "G = min(1, 2 (n.h)(n.o) / (o.h), 2 (n.h)(n.i) / (o.h))"},
+    {"diffuse",
+     "carpaint: diffuse / pi (a scalar albedo), multiplied by the colour table like the lobes; cook_torrance: "
+     "kd / pi (RGB albedo)"},
+    {"carpaint",
+     "f = (1 - F_ior(n.i)) (1 - F_ior(n.o)) chi(theta_hbar, theta_ibar) (diffuse / pi + sum_k lobe_k) with the "
+     "lobes and diffuse evaluated at i and o refracted into the clear coat (Snell, index ior, same azimuth); "
+     "F_ior is the exact unpolarised dielectric Fresnel reflectance; no 1/ior^2 factor; the clear coat's mirror "
+     "reflection F_ior(n.i) is not included (a renderer adds it)"},
+    {"colour_table_indexing",
+     "colour_table[a][b] is chi at u = (a + 0.5) / Nh, v = (b + 0.5) / Ni with u = 2 theta_hbar / pi, "
+     "v = 2 theta_ibar / pi, theta_hbar = angle(n, hbar), theta_ibar = angle(hbar, ibar) of the refracted "
+     "directions; bilinear lookup clamped at the borders, times colour_table_scale"},
+    {"colour_table_domain",
+     "full: every sample of [0, pi/2] x [0, pi/2] holds data, also where theta_ibar > pi/2 - theta_hbar "
+     "(X-Rite files fill only theta_ibar <= pi/2 - theta_hbar)"},
+    {"cook_torrance",
+     "f = kd / pi + sum_l ks_l F(r_l, h.o) D(m_l, theta_h) G / (pi (n.i)(n.o)) in air (Guenther et al. 2005, "
+     "eq. 1); lobes broadest first as fitted; *_std are one standard deviation"},
+};
+
+constexpr double kHalfPi = std::numbers::pi / 2;
+
+bool valid_name(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
+  });
+}
+
+bool valid_sha256(const std::string& s) {
+  return s.size() == 64 &&
+         std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
+std::vector<double> theta_samples(int n) {
+  std::vector<double> v(static_cast<std::size_t>(n));
+  for (int a = 0; a < n; ++a) v[static_cast<std::size_t>(a)] = (a + 0.5) / n * kHalfPi;
+  return v;
+}
+
+std::vector<double> rgb_vec(const brdf::Rgb& c) { return {c[0], c[1], c[2]}; }
+
+// ---- writing ----
+
+void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const Writer& w) {
+  w.attr_string(root, "format", kAxfFormat, rp);
+  w.attr_int(root, "format_version", kAxfFormatVersion, rp);
+  w.attr_string(root, "paint_name", paint.name, rp);
+  w.attr_string(root, "model", paint.model, rp);
+
+  {
+    const std::string gp = h5::join(rp, "conventions");
+    Handle g = w.create_group(root, "conventions", gp);
+    for (const auto& [k, v] : kConventions) w.attr_string(g.get(), k, v, gp);
+  }
+
+  if (paint.carpaint) {
+    const auto& c = *paint.carpaint;
+    const std::string gp = h5::join(rp, "carpaint");
+    Handle g = w.create_group(root, "carpaint", gp);
+    const auto n = static_cast<hsize_t>(c.lobes.size());
+    w.attr_int(g.get(), "lobe_count", static_cast<std::int64_t>(n), gp);
+    w.scalar(g.get(), "ior", c.ior, h5::join(gp, "ior"));
+    w.scalar(g.get(), "diffuse", c.diffuse, h5::join(gp, "diffuse"));
+    std::vector<double> coeffs, spreads, f0s;
+    for (const auto& l : c.lobes) {
+      coeffs.push_back(l.coefficient);
+      spreads.push_back(l.spread);
+      f0s.push_back(l.f0);
+    }
+    w.doubles(g.get(), "ct_coeffs", coeffs, {n}, h5::join(gp, "ct_coeffs"));
+    w.doubles(g.get(), "ct_spreads", spreads, {n}, h5::join(gp, "ct_spreads"));
+    w.doubles(g.get(), "ct_f0s", f0s, {n}, h5::join(gp, "ct_f0s"));
+    const auto nh = static_cast<hsize_t>(c.chi.theta_h_samples), ni = static_cast<hsize_t>(c.chi.theta_i_samples);
+    std::vector<double> table;
+    table.reserve(c.chi.rgb.size() * 3);
+    for (const auto& v : c.chi.rgb) table.insert(table.end(), {v[0], v[1], v[2]});
+    const std::string tp = h5::join(gp, "colour_table");
+    w.doubles(g.get(), "colour_table", table, {nh, ni, 3}, tp);
+    w.scalar(g.get(), "colour_table_scale", c.chi.scale, h5::join(gp, "colour_table_scale"));
+    w.doubles(g.get(), "colour_table_theta_h_rad", theta_samples(c.chi.theta_h_samples), {nh},
+              h5::join(gp, "colour_table_theta_h_rad"));
+    w.doubles(g.get(), "colour_table_theta_i_rad", theta_samples(c.chi.theta_i_samples), {ni},
+              h5::join(gp, "colour_table_theta_i_rad"));
+  }
+
+  if (paint.cook_torrance) {
+    const auto& ct = *paint.cook_torrance;
+    const std::string gp = h5::join(rp, "cook_torrance");
+    Handle g = w.create_group(root, "cook_torrance", gp);
+    const auto n = static_cast<hsize_t>(ct.params.lobes.size());
+    w.attr_int(g.get(), "lobe_count", static_cast<std::int64_t>(n), gp);
+    auto put = [&](const std::string& suffix, const brdf::Rgb& kd, const std::vector<brdf::CtLobe>& lobes) {
+      std::vector<double> ks, m, r;
+      for (const auto& l : lobes) {
+        ks.insert(ks.end(), {l.ks[0], l.ks[1], l.ks[2]});
+        m.push_back(l.m);
+        r.push_back(l.r);
+      }
+      w.doubles(g.get(), "kd" + suffix, rgb_vec(kd), {3}, h5::join(gp, "kd" + suffix));
+      w.doubles(g.get(), "ks" + suffix, ks, {static_cast<hsize_t>(lobes.size()), 3}, h5::join(gp, "ks" + suffix));
+      w.doubles(g.get(), "m" + suffix, m, {static_cast<hsize_t>(lobes.size())}, h5::join(gp, "m" + suffix));
+      w.doubles(g.get(), "r" + suffix, r, {static_cast<hsize_t>(lobes.size())}, h5::join(gp, "r" + suffix));
+    };
+    put("", ct.params.kd, ct.params.lobes);
+    if (ct.stddev) put("_std", ct.stddev->kd, ct.stddev->lobes);
+  }
+
+  if (paint.flakes) {
+    const auto& f = *paint.flakes;
+    const std::string gp = h5::join(rp, "flakes");
+    Handle g = w.create_group(root, "flakes", gp);
+    w.scalar(g.get(), "density", f.density, h5::join(gp, "density"));
+    w.scalar(g.get(), "roughness", f.roughness, h5::join(gp, "roughness"));
+    w.scalar(g.get(), "lifetime_deg", f.lifetime_deg, h5::join(gp, "lifetime_deg"));
+    std::vector<std::int64_t> lobes;
+    for (int l : f.lobes) lobes.push_back(l + 1);
+    w.ints(g.get(), "lobes", lobes, {static_cast<hsize_t>(lobes.size())}, h5::join(gp, "lobes"));
+  }
+
+  if (paint.fit_quality) {
+    const auto& q = *paint.fit_quality;
+    const std::string gp = h5::join(rp, "fit_quality");
+    Handle g = w.create_group(root, "fit_quality", gp);
+    w.scalar(g.get(), "log_rms", q.log_rms, h5::join(gp, "log_rms"));
+    w.scalar_int(g.get(), "bins_used", q.bins_used, h5::join(gp, "bins_used"));
+    w.attr_int(g.get(), "converged", q.converged ? 1 : 0, gp);
+    w.attr_string(g.get(), "residual_json", q.residual.dump(), gp);
+  }
+
+  {
+    const auto& pv = paint.provenance;
+    const std::string gp = h5::join(rp, "provenance");
+    Handle g = w.create_group(root, "provenance", gp);
+    w.attr_string(g.get(), "sample_name", pv.sample_name, gp);
+    w.attr_string(g.get(), "measured_utc", pv.measured_utc, gp);
+    w.attr_string(g.get(), "exported_utc", pv.exported_utc, gp);
+    w.attr_string(g.get(), "rig_name", pv.rig_name, gp);
+    w.attr_string(g.get(), "session_sha256", pv.session_sha256, gp);
+    w.attr_string(g.get(), "software_version", pv.software_version, gp);
+    w.attr_string(g.get(), "source", pv.source, gp);
+    std::vector<std::string> files, sums;
+    for (const auto& [f, s] : pv.calibration_sha256) {
+      files.push_back(f);
+      sums.push_back(s);
+    }
+    w.strings(g.get(), "calibration_files", files, h5::join(gp, "calibration_files"));
+    w.strings(g.get(), "calibration_sha256", sums, h5::join(gp, "calibration_sha256"));
+  }
+}
+
+// ---- reading and validation ----
+
+struct Range {
+  double lo, hi;
+  bool lo_open, hi_open;
+  static Range open01() { return {0, 1, true, true}; }
+  static Range non_negative() { return {0, INFINITY, false, true}; }
+  static Range positive() { return {0, INFINITY, true, true}; }
+  static Range closed(double a, double b) { return {a, b, false, false}; }
+  bool contains(double v) const {
+    if (lo_open ? !(v > lo) : !(v >= lo)) return false;
+    if (hi_open ? !(v < hi) : !(v <= hi)) return false;
+    return true;
+  }
+  std::string text() const {
+    const std::string h = std::isinf(hi) ? "inf" : fmt::format("{:g}", hi);
+    return fmt::format("{}{:g}, {}{}", lo_open ? "(" : "[", lo, h, (hi_open || std::isinf(hi)) ? ")" : "]");
+  }
+};
+
+std::string index_text(std::size_t flat, const std::vector<hsize_t>& dims) {
+  if (dims.size() <= 1) return fmt::format("at index {}", flat);
+  std::vector<std::size_t> idx(dims.size());
+  for (std::size_t d = dims.size(); d-- > 0;) {
+    idx[d] = flat % dims[d];
+    flat /= dims[d];
+  }
+  std::string s = "at index [";
+  for (std::size_t d = 0; d < idx.size(); ++d) s += (d ? ", " : "") + std::to_string(idx[d]);
+  return s + "]";
+}
+
+std::string shape_text(const std::vector<hsize_t>& dims) {
+  if (dims.empty()) return "a scalar";
+  std::string s = "[";
+  for (std::size_t i = 0; i < dims.size(); ++i) s += (i ? ", " : "") + std::to_string(dims[i]);
+  return s + "]";
+}
+
+// Checks every value against `r`; reports the first bad one (and how many more).
+bool check_values(const DoubleArray& a, const std::string& path, const Range& r, const Problems& p) {
+  std::size_t bad = 0;
+  std::string first;
+  for (std::size_t i = 0; i < a.values.size(); ++i) {
+    const double v = a.values[i];
+    const std::string where = a.dims.empty() ? "" : " " + index_text(i, a.dims);
+    std::string msg;
+    if (!std::isfinite(v))
+      msg = fmt::format("value {}{} is not finite", v, where);
+    else if (!r.contains(v))
+      msg = fmt::format("value {:g}{} out of range {}", v, where, r.text());
+    if (!msg.empty() && bad++ == 0) first = msg;
+  }
+  if (bad == 0) return true;
+  p.add(path, bad > 1 ? fmt::format("{} (and {} more)", first, bad - 1) : first);
+  return false;
+}
+
+bool check_shape(const DoubleArray& a, const std::vector<hsize_t>& expected, const std::string& path,
+                 const Problems& p, const std::string& why = "") {
+  if (a.dims == expected) return true;
+  p.add(path, "wrong shape " + shape_text(a.dims) + ", expected " + shape_text(expected) + why);
+  return false;
+}
+
+// A dataset of known shape and range; nullopt (with problems recorded) otherwise.
+std::optional<DoubleArray> read_checked(hid_t loc, const std::string& name, const std::string& gp,
+                                        const std::vector<hsize_t>& shape, const Range& r, const Problems& p,
+                                        const std::string& why = "") {
+  const std::string path = h5::join(gp, name);
+  auto a = h5::read_doubles(loc, name, path, p);
+  if (!a) return std::nullopt;
+  if (!check_shape(*a, shape, path, p, why)) return std::nullopt;
+  if (!check_values(*a, path, r, p)) return std::nullopt;
+  return a;
+}
+
+void check_conventions(hid_t root, const std::string& rp, const Problems& p) {
+  const std::string gp = h5::join(rp, "conventions");
+  Handle g = h5::open_group(root, "conventions", gp, p);
+  if (!g) return;
+  for (const auto& [k, v] : kConventions) {
+    auto s = h5::read_attr_string(g.get(), k, gp, p);
+    if (s && *s != v)
+      p.add(h5::attr_path(gp, k), "states a different convention than format version 1 (\"" + *s +
+                                      "\"); expected \"" + v + "\"");
+  }
+}
+
+std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::string& rp, const Problems& p) {
+  const std::string gp = h5::join(rp, "carpaint");
+  Handle g = h5::open_group(root, "carpaint", gp, p);
+  if (!g) return std::nullopt;
+  const std::size_t before = p.list->size();
+  brdf::AxfCarPaintParams c;
+  if (auto v = read_checked(g.get(), "ior", gp, {}, Range::closed(1, 3), p)) c.ior = v->values[0];
+  if (auto v = read_checked(g.get(), "diffuse", gp, {}, Range::non_negative(), p)) c.diffuse = v->values[0];
+
+  // The lobe count comes from ct_coeffs; the other lobe datasets and lobe_count must agree.
+  hsize_t n = 0;
+  const std::string cp = h5::join(gp, "ct_coeffs");
+  auto coeffs = h5::read_doubles(g.get(), "ct_coeffs", cp, p);
+  if (coeffs) {
+    if (coeffs->dims.size() != 1 || coeffs->dims[0] < 1 || coeffs->dims[0] > 3) {
+      p.add(cp, "wrong shape " + shape_text(coeffs->dims) + ", expected [N] with 1 to 3 lobes");
+      coeffs.reset();
+    } else {
+      n = coeffs->dims[0];
+      if (!check_values(*coeffs, cp, Range::non_negative(), p)) coeffs.reset();
+    }
+  }
+  if (auto lc = h5::read_attr_int(g.get(), "lobe_count", gp, p); lc && n > 0 && *lc != static_cast<std::int64_t>(n))
+    p.add(h5::attr_path(gp, "lobe_count"), fmt::format("is {} but {} has {} lobes", *lc, cp, n));
+  std::optional<DoubleArray> spreads, f0s;
+  if (n > 0) {
+    const std::string why = " (one per lobe of ct_coeffs)";
+    spreads = read_checked(g.get(), "ct_spreads", gp, {n}, Range::open01(), p, why);
+    f0s = read_checked(g.get(), "ct_f0s", gp, {n}, Range::open01(), p, why);
+  } else {
+    // Still report what is wrong with them on their own.
+    h5::read_doubles(g.get(), "ct_spreads", h5::join(gp, "ct_spreads"), p);
+    h5::read_doubles(g.get(), "ct_f0s", h5::join(gp, "ct_f0s"), p);
+  }
+  if (coeffs && spreads && f0s)
+    for (hsize_t k = 0; k < n; ++k) c.lobes.push_back({coeffs->values[k], spreads->values[k], f0s->values[k]});
+
+  const std::string tp = h5::join(gp, "colour_table");
+  auto table = h5::read_doubles(g.get(), "colour_table", tp, p);
+  if (table) {
+    const auto& d = table->dims;
+    if (d.size() != 3 || d[2] != 3 || d[0] < 1 || d[1] < 1 || d[0] > 1024 || d[1] > 1024) {
+      p.add(tp, "wrong shape " + shape_text(d) + ", expected [Nh, Ni, 3] with Nh, Ni in 1..1024");
+      table.reset();
+    } else if (!check_values(*table, tp, Range::non_negative(), p)) {
+      table.reset();
+    }
+  }
+  if (auto s = read_checked(g.get(), "colour_table_scale", gp, {}, Range::positive(), p)) c.chi.scale = s->values[0];
+  if (table) {
+    const hsize_t nh = table->dims[0], ni = table->dims[1];
+    c.chi.theta_h_samples = static_cast<int>(nh);
+    c.chi.theta_i_samples = static_cast<int>(ni);
+    c.chi.rgb.resize(nh * ni);
+    for (std::size_t i = 0; i < nh * ni; ++i)
+      c.chi.rgb[i] = brdf::Rgb(table->values[3 * i], table->values[3 * i + 1], table->values[3 * i + 2]);
+    // The sample positions must be the half-texel centres the indexing convention states.
+    auto check_axis = [&](const std::string& name, hsize_t count, const char* axis) {
+      auto a = read_checked(g.get(), name, gp, {count}, Range::closed(0, kHalfPi), p,
+                            fmt::format(" (one per {} sample of colour_table)", axis));
+      if (!a) return;
+      const auto expect = theta_samples(static_cast<int>(count));
+      for (std::size_t k = 0; k < count; ++k)
+        if (std::abs(a->values[k] - expect[k]) > 1e-9) {
+          p.add(h5::join(gp, name),
+                fmt::format("value {:.12g} at index {} is not the sample centre {:.12g} = ({} + 0.5) / {} * pi/2", a->values[k],
+                            k, expect[k], k, count));
+          return;
+        }
+    };
+    check_axis("colour_table_theta_h_rad", nh, "theta_h");
+    check_axis("colour_table_theta_i_rad", ni, "theta_i");
+  } else {
+    h5::read_doubles(g.get(), "colour_table_theta_h_rad", h5::join(gp, "colour_table_theta_h_rad"), p);
+    h5::read_doubles(g.get(), "colour_table_theta_i_rad", h5::join(gp, "colour_table_theta_i_rad"), p);
+  }
+  if (p.list->size() != before) return std::nullopt;
+  return c;
+}
+
+std::optional<AxfCookTorrance> read_cook_torrance(hid_t root, const std::string& rp, const Problems& p) {
+  const std::string gp = h5::join(rp, "cook_torrance");
+  Handle g = h5::open_group(root, "cook_torrance", gp, p);
+  if (!g) return std::nullopt;
+  const std::size_t before = p.list->size();
+  AxfCookTorrance ct;
+  hsize_t n = 0;
+  const std::string mp = h5::join(gp, "m");
+  auto m = h5::read_doubles(g.get(), "m", mp, p);
+  if (m) {
+    if (m->dims.size() != 1 || m->dims[0] < 1 || m->dims[0] > 3) {
+      p.add(mp, "wrong shape " + shape_text(m->dims) + ", expected [N] with 1 to 3 lobes");
+      m.reset();
+    } else {
+      n = m->dims[0];
+      if (!check_values(*m, mp, Range::open01(), p)) m.reset();
+    }
+  }
+  if (auto lc = h5::read_attr_int(g.get(), "lobe_count", gp, p); lc && n > 0 && *lc != static_cast<std::int64_t>(n))
+    p.add(h5::attr_path(gp, "lobe_count"), fmt::format("is {} but {} has {} lobes", *lc, mp, n));
+  const std::string why = " (one per lobe of m)";
+  auto kd = read_checked(g.get(), "kd", gp, {3}, Range::non_negative(), p);
+  std::optional<DoubleArray> ks, r;
+  if (n > 0) {
+    ks = read_checked(g.get(), "ks", gp, {n, 3}, Range::non_negative(), p, why);
+    r = read_checked(g.get(), "r", gp, {n}, Range::open01(), p, why);
+  } else {
+    h5::read_doubles(g.get(), "ks", h5::join(gp, "ks"), p);
+    h5::read_doubles(g.get(), "r", h5::join(gp, "r"), p);
+  }
+  if (kd) ct.params.kd = brdf::Rgb(kd->values[0], kd->values[1], kd->values[2]);
+  if (m && ks && r)
+    for (hsize_t k = 0; k < n; ++k)
+      ct.params.lobes.push_back({brdf::Rgb(ks->values[3 * k], ks->values[3 * k + 1], ks->values[3 * k + 2]),
+                                 m->values[k], r->values[k]});
+
+  // Standard deviations: all four or none.
+  const std::vector<std::string> std_names = {"kd_std", "ks_std", "m_std", "r_std"};
+  int present = 0;
+  for (const auto& s : std_names) present += h5::exists(g.get(), s) ? 1 : 0;
+  if (present > 0 && n > 0) {
+    const std::string swhy = " (the shape of the parameter)";
+    auto kds = read_checked(g.get(), "kd_std", gp, {3}, Range::non_negative(), p, swhy);
+    auto kss = read_checked(g.get(), "ks_std", gp, {n, 3}, Range::non_negative(), p, swhy);
+    auto ms = read_checked(g.get(), "m_std", gp, {n}, Range::non_negative(), p, swhy);
+    auto rs = read_checked(g.get(), "r_std", gp, {n}, Range::non_negative(), p, swhy);
+    if (kds && kss && ms && rs) {
+      CookTorranceStddev sd;
+      sd.kd = brdf::Rgb(kds->values[0], kds->values[1], kds->values[2]);
+      for (hsize_t k = 0; k < n; ++k)
+        sd.lobes.push_back({brdf::Rgb(kss->values[3 * k], kss->values[3 * k + 1], kss->values[3 * k + 2]),
+                            ms->values[k], rs->values[k]});
+      ct.stddev = sd;
+    }
+  }
+  if (p.list->size() != before) return std::nullopt;
+  return ct;
+}
+
+std::optional<brdf::FlakeSpec> read_flakes(hid_t root, const std::string& rp, std::size_t lobe_count,
+                                           const Problems& p) {
+  const std::string gp = h5::join(rp, "flakes");
+  Handle g = h5::open_group(root, "flakes", gp, p);
+  if (!g) return std::nullopt;
+  const std::size_t before = p.list->size();
+  brdf::FlakeSpec f;
+  if (auto v = read_checked(g.get(), "density", gp, {}, Range::positive(), p)) f.density = v->values[0];
+  if (auto v = read_checked(g.get(), "roughness", gp, {}, Range::open01(), p)) f.roughness = v->values[0];
+  if (auto v = read_checked(g.get(), "lifetime_deg", gp, {}, Range{0, 45, true, false}, p))
+    f.lifetime_deg = v->values[0];
+  const std::string lp = h5::join(gp, "lobes");
+  if (auto l = h5::read_ints(g.get(), "lobes", lp, p)) {
+    if (l->dims.size() != 1) {
+      p.add(lp, "wrong shape " + shape_text(l->dims) + ", expected [K] (1-based lobe numbers)");
+    } else {
+      std::set<std::int64_t> seen;
+      for (std::size_t i = 0; i < l->values.size(); ++i) {
+        const std::int64_t v = l->values[i];
+        if (v < 1 || (lobe_count > 0 && v > static_cast<std::int64_t>(lobe_count))) {
+          p.add(lp, fmt::format("value {} at index {} out of range [1, {}] (1-based lobe numbers)", v, i, lobe_count));
+          break;
+        }
+        if (!seen.insert(v).second) {
+          p.add(lp, fmt::format("lobe {} is listed twice", v));
+          break;
+        }
+        f.lobes.push_back(static_cast<int>(v - 1));
+      }
+    }
+  }
+  if (p.list->size() != before) return std::nullopt;
+  return f;
+}
+
+std::optional<AxfFitQuality> read_fit_quality(hid_t root, const std::string& rp, const Problems& p) {
+  const std::string gp = h5::join(rp, "fit_quality");
+  Handle g = h5::open_group(root, "fit_quality", gp, p);
+  if (!g) return std::nullopt;
+  const std::size_t before = p.list->size();
+  AxfFitQuality q;
+  if (auto v = read_checked(g.get(), "log_rms", gp, {}, Range::non_negative(), p)) q.log_rms = v->values[0];
+  const std::string bp = h5::join(gp, "bins_used");
+  if (auto b = h5::read_ints(g.get(), "bins_used", bp, p)) {
+    if (!b->dims.empty())
+      p.add(bp, "wrong shape " + shape_text(b->dims) + ", expected a scalar");
+    else if (b->values[0] < 0)
+      p.add(bp, fmt::format("value {} out of range [0, inf)", b->values[0]));
+    else
+      q.bins_used = b->values[0];
+  }
+  if (auto c = h5::read_attr_int(g.get(), "converged", gp, p)) {
+    if (*c != 0 && *c != 1)
+      p.add(h5::attr_path(gp, "converged"), fmt::format("value {} is not 0 or 1", *c));
+    else
+      q.converged = *c == 1;
+  }
+  if (auto s = h5::read_attr_string(g.get(), "residual_json", gp, p)) {
+    try {
+      q.residual = Json::parse(*s);
+      if (!q.residual.is_object()) p.add(h5::attr_path(gp, "residual_json"), "is not a JSON object");
+    } catch (const nlohmann::json::exception& e) {
+      p.add(h5::attr_path(gp, "residual_json"), std::string("is not valid JSON: ") + e.what());
+    }
+  }
+  if (p.list->size() != before) return std::nullopt;
+  return q;
+}
+
+AxfProvenance read_provenance(hid_t root, const std::string& rp, const Problems& p) {
+  AxfProvenance pv;
+  const std::string gp = h5::join(rp, "provenance");
+  Handle g = h5::open_group(root, "provenance", gp, p);
+  if (!g) return pv;
+  auto text = [&](const char* name, std::string& out) {
+    if (auto s = h5::read_attr_string(g.get(), name, gp, p)) out = *s;
+  };
+  text("sample_name", pv.sample_name);
+  text("measured_utc", pv.measured_utc);
+  text("exported_utc", pv.exported_utc);
+  text("rig_name", pv.rig_name);
+  text("session_sha256", pv.session_sha256);
+  text("software_version", pv.software_version);
+  text("source", pv.source);
+  for (const char* name : {"measured_utc", "exported_utc"}) {
+    const std::string& v = std::strcmp(name, "measured_utc") == 0 ? pv.measured_utc : pv.exported_utc;
+    if (!v.empty() && parse_utc_timestamp(v) < 0)
+      p.add(h5::attr_path(gp, name), "'" + v + "' is not an ISO 8601 UTC time (YYYY-MM-DDTHH:MM:SSZ)");
+  }
+  if (!pv.session_sha256.empty() && !valid_sha256(pv.session_sha256))
+    p.add(h5::attr_path(gp, "session_sha256"), "'" + pv.session_sha256 + "' is not a SHA-256 (64 lower-case hex digits)");
+  auto files = h5::read_strings(g.get(), "calibration_files", h5::join(gp, "calibration_files"), p);
+  auto sums = h5::read_strings(g.get(), "calibration_sha256", h5::join(gp, "calibration_sha256"), p);
+  if (files && sums) {
+    if (files->size() != sums->size()) {
+      p.add(h5::join(gp, "calibration_sha256"),
+            fmt::format("has {} entries but calibration_files has {}", sums->size(), files->size()));
+    } else {
+      for (std::size_t i = 0; i < files->size(); ++i) {
+        if (!valid_sha256((*sums)[i]))
+          p.add(h5::join(gp, "calibration_sha256"),
+                fmt::format("value '{}' at index {} is not a SHA-256 (64 lower-case hex digits)", (*sums)[i], i));
+        pv.calibration_sha256.emplace_back((*files)[i], (*sums)[i]);
+      }
+    }
+  }
+  return pv;
+}
+
+// Reads one paint rooted at `root` (whose HDF5 path is rp), recording every problem.
+AxfPaint read_paint(hid_t root, const std::string& rp, const Problems& p) {
+  AxfPaint paint;
+  if (auto f = h5::read_attr_string(root, "format", rp, p); f && *f != kAxfFormat)
+    p.add(h5::attr_path(rp, "format"), "'" + *f + "' is not '" + kAxfFormat + "'");
+  if (auto v = h5::read_attr_int(root, "format_version", rp, p)) {
+    if (*v > kAxfFormatVersion)
+      p.add(h5::attr_path(rp, "format_version"),
+            fmt::format("{} is newer than this software reads ({}): update paintlab", *v, kAxfFormatVersion));
+    else if (*v < 1)
+      p.add(h5::attr_path(rp, "format_version"), fmt::format("{} is not a format version (>= 1)", *v));
+  }
+  if (auto n = h5::read_attr_string(root, "paint_name", rp, p)) {
+    paint.name = *n;
+    if (!valid_name(*n)) p.add(h5::attr_path(rp, "paint_name"), "'" + *n + "' is not a paint name ([a-z0-9._-]+)");
+  }
+  if (auto m = h5::read_attr_string(root, "model", rp, p)) {
+    paint.model = *m;
+    if (*m != "axf-carpaint" && *m != "cook-torrance")
+      p.add(h5::attr_path(rp, "model"), "'" + *m + "' is not 'axf-carpaint' or 'cook-torrance'");
+  }
+  check_conventions(root, rp, p);
+  const bool need_carpaint = paint.model == "axf-carpaint";
+  const bool need_ct = paint.model == "cook-torrance";
+  if (need_carpaint || h5::exists(root, "carpaint")) paint.carpaint = read_carpaint(root, rp, p);
+  if (need_ct || h5::exists(root, "cook_torrance")) paint.cook_torrance = read_cook_torrance(root, rp, p);
+  if (h5::exists(root, "flakes")) {
+    std::size_t lobes = 0;
+    if (paint.model == "axf-carpaint" && paint.carpaint) lobes = paint.carpaint->lobes.size();
+    if (paint.model == "cook-torrance" && paint.cook_torrance) lobes = paint.cook_torrance->params.lobes.size();
+    paint.flakes = read_flakes(root, rp, lobes, p);
+  }
+  if (h5::exists(root, "fit_quality")) paint.fit_quality = read_fit_quality(root, rp, p);
+  paint.provenance = read_provenance(root, rp, p);
+  return paint;
+}
+
+// Opens a file for reading; records one problem (or throws IoError when `throw_io`) when
+// it cannot be opened.
+Handle open_file(const fs::path& path, const Problems& p, bool throw_io) {
+  h5::silence_errors();
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    if (throw_io) throw IoError(path.string(), "cannot read", ENOENT);
+    p.add(path.string(), "no such file");
+    return {};
+  }
+  Handle f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!f) {
+    const htri_t sig = H5Fis_hdf5(path.c_str());
+    p.add("/", sig > 0 ? "truncated or damaged HDF5 file (HDF5 cannot open it)"
+                       : "not an HDF5 file (no HDF5 signature): not an AxF-like paint file");
+  }
+  return f;
+}
+
+Handle create_file(const fs::path& tmp) {
+  h5::silence_errors();
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
+  Handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
+  if (!f) throw IoError(tmp.string(), "cannot create HDF5 file");
+  return f;
+}
+
+void close_file(Handle& f, const fs::path& tmp) {
+  if (H5Fflush(f.get(), H5F_SCOPE_GLOBAL) < 0 || !f.close()) throw IoError(tmp.string(), "cannot finish HDF5 file");
+}
+
+AxfPaint with_defaults(AxfPaint paint) {
+  if (paint.provenance.exported_utc.empty()) paint.provenance.exported_utc = utc_timestamp();
+  if (paint.provenance.software_version.empty()) paint.provenance.software_version = software_version();
+  return paint;
+}
+
+[[noreturn]] void throw_problems(const std::string& where, const std::vector<std::string>& problems) {
+  std::string msg = where + ": " + problems.front();
+  if (problems.size() > 1) msg += fmt::format(" (and {} more problems; see paintlab axf validate)", problems.size() - 1);
+  throw DataError(msg);
+}
+
+}  // namespace
+
+const std::vector<std::pair<std::string, std::string>>& axf_conventions() { return kConventions; }
+
+bool AxfCookTorrance::operator==(const AxfCookTorrance& o) const {
+  if (!(params == o.params) || stddev.has_value() != o.stddev.has_value()) return false;
+  if (!stddev) return true;
+  return (stddev->kd == o.stddev->kd).all() && stddev->lobes == o.stddev->lobes;
+}
+
+bool AxfFitQuality::operator==(const AxfFitQuality& o) const {
+  return log_rms == o.log_rms && bins_used == o.bins_used && converged == o.converged && residual == o.residual;
+}
+
+brdf::PaintSpec AxfPaint::paint_spec() const {
+  brdf::PaintSpec s;
+  s.name = name;
+  if (model == "axf-carpaint") {
+    if (!carpaint) throw DataError("paint '" + name + "': model axf-carpaint but no /carpaint");
+    s.params = *carpaint;
+  } else {
+    if (!cook_torrance) throw DataError("paint '" + name + "': model cook-torrance but no /cook_torrance");
+    s.params = cook_torrance->params;
+  }
+  s.flakes = flakes;
+  return s;
+}
+
+AxfPaint axf_from_paint(const brdf::PaintSpec& spec) {
+  AxfPaint a;
+  a.name = spec.name;
+  a.model = spec.model();
+  if (const auto* ct = spec.cook_torrance()) {
+    a.cook_torrance = AxfCookTorrance{*ct, std::nullopt};
+  } else if (const auto* cp = spec.axf_carpaint()) {
+    a.carpaint = *cp;
+  } else {
+    throw DataError("paint '" + spec.name + "': " + spec.model() +
+                    " paints have no AxF-like form (only cook-torrance and axf-carpaint): measure and fit it");
+  }
+  a.flakes = spec.flakes;
+  if (!spec.source.empty()) a.provenance.source = spec.source.string();
+  return a;
+}
+
+AxfPaint axf_from_fit_json(const Json& fit, const std::string& where) {
+  if (!fit.is_object()) throw DataError(where + ": expected a JSON object (a fit)");
+  const brdf::PaintSpec spec = brdf::paint_from_json(fit, where);
+  AxfPaint a = axf_from_paint(spec);
+  a.provenance.source = where;
+  if (a.cook_torrance && fit.contains("stddev")) {
+    const Json& s = fit["stddev"];
+    const std::string sw = where + ": key 'stddev'";
+    if (!s.is_object()) throw DataError(sw + ": expected an object");
+    CookTorranceStddev sd;
+    const auto kd = json_get<std::vector<double>>(s, "kd", sw);
+    if (kd.size() != 3) throw DataError(sw + ".kd: expected 3 numbers");
+    sd.kd = brdf::Rgb(kd[0], kd[1], kd[2]);
+    const Json lobes = json_get<Json>(s, "lobes", sw);
+    if (!lobes.is_array() || lobes.size() != a.cook_torrance->params.lobes.size())
+      throw DataError(sw + ".lobes: expected one entry per lobe (" +
+                      std::to_string(a.cook_torrance->params.lobes.size()) + ")");
+    for (std::size_t k = 0; k < lobes.size(); ++k) {
+      const std::string lw = sw + fmt::format(".lobes[{}]", k);
+      const auto ks = json_get<std::vector<double>>(lobes[k], "ks", lw);
+      if (ks.size() != 3) throw DataError(lw + ".ks: expected 3 numbers");
+      sd.lobes.push_back({brdf::Rgb(ks[0], ks[1], ks[2]), json_get<double>(lobes[k], "m", lw),
+                          json_get<double>(lobes[k], "r", lw)});
+    }
+    a.cook_torrance->stddev = sd;
+  }
+  if (fit.contains("residual")) {
+    const Json& r = fit["residual"];
+    const std::string rw = where + ": key 'residual'";
+    if (!r.is_object()) throw DataError(rw + ": expected an object");
+    AxfFitQuality q;
+    q.log_rms = json_get<double>(r, "log_rms", rw);
+    q.bins_used = json_get<std::int64_t>(r, "bins_used", rw);
+    q.residual = r;
+    if (fit.contains("summary") && fit["summary"].is_object())
+      q.converged = json_get_or<bool>(fit["summary"], "converged", true, where + ": key 'summary'");
+    a.fit_quality = q;
+  }
+  return a;
+}
+
+void check_axf_paint(const AxfPaint& paint) {
+  // One set of rules: write into an in-memory HDF5 file and read it back with the validator.
+  h5::silence_errors();
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_fapl_core(fapl.get(), 1 << 16, 0);
+  H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
+  const std::string name = fmt::format("paintlab-check-{}", static_cast<const void*>(&paint));
+  Handle f(H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
+  if (!f) throw IoError(name, "cannot create an in-memory HDF5 file");
+  Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+  write_paint(root.get(), "/", paint, Writer(name));
+  std::vector<std::string> problems;
+  read_paint(root.get(), "/", Problems{&problems});
+  if (!problems.empty()) throw_problems("paint '" + paint.name + "'", problems);
+}
+
+void write_axf_file(const fs::path& path, const AxfPaint& input) {
+  const AxfPaint paint = with_defaults(input);
+  check_axf_paint(paint);
+  write_via_temp(path, [&](const fs::path& tmp) {
+    Handle f = create_file(tmp);
+    {
+      Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+      write_paint(root.get(), "/", paint, Writer(path.string()));
+    }
+    close_file(f, tmp);
+  });
+}
+
+AxfPaint read_axf_file(const fs::path& path) {
+  std::vector<std::string> problems;
+  const Problems p{&problems};
+  Handle f = open_file(path, p, true);
+  if (!f) throw_problems(path.string(), problems);
+  Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+  if (auto fmt_attr = h5::read_attr_string(root.get(), "format", "/", p); fmt_attr && *fmt_attr == kAxfLibraryFormat)
+    throw DataError(path.string() + ": is a paint library file (" + kAxfLibraryFormat +
+                    "), not a single paint: use paintlab library commands or read_axf_library_file");
+  problems.clear();
+  AxfPaint paint = read_paint(root.get(), "/", p);
+  if (!problems.empty()) throw_problems(path.string(), problems);
+  return paint;
+}
+
+void write_axf_library_file(const fs::path& path, const std::vector<AxfPaint>& input) {
+  std::vector<AxfPaint> paints;
+  std::set<std::string> names;
+  for (const auto& p : input) {
+    paints.push_back(with_defaults(p));
+    check_axf_paint(paints.back());
+    if (!names.insert(p.name).second) throw DataError("paint '" + p.name + "' is listed twice");
+  }
+  write_via_temp(path, [&](const fs::path& tmp) {
+    const Writer w(path.string());
+    Handle f = create_file(tmp);
+    {
+      Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+      w.attr_string(root.get(), "format", kAxfLibraryFormat, "/");
+      w.attr_int(root.get(), "format_version", kAxfFormatVersion, "/");
+      w.attr_int(root.get(), "paint_count", static_cast<std::int64_t>(paints.size()), "/");
+      Handle group = w.create_group(root.get(), "paints", "/paints");
+      for (const auto& p : paints) {
+        const std::string gp = "/paints/" + p.name;
+        Handle g = w.create_group(group.get(), p.name, gp);
+        write_paint(g.get(), gp, p, w);
+      }
+    }
+    close_file(f, tmp);
+  });
+}
+
+namespace {
+
+// Validates (and reads) a library file's paints.
+std::vector<AxfPaint> read_library(hid_t root, const Problems& p, std::vector<std::string>* names) {
+  std::vector<AxfPaint> out;
+  if (auto v = h5::read_attr_int(root, "format_version", "/", p); v && *v > kAxfFormatVersion)
+    p.add(h5::attr_path("/", "format_version"),
+          fmt::format("{} is newer than this software reads ({}): update paintlab", *v, kAxfFormatVersion));
+  auto count = h5::read_attr_int(root, "paint_count", "/", p);
+  Handle group = h5::open_group(root, "paints", "/paints", p);
+  if (!group) return out;
+  const auto members = h5::member_names(group.get());
+  if (count && *count != static_cast<std::int64_t>(members.size()))
+    p.add(h5::attr_path("/", "paint_count"),
+          fmt::format("is {} but /paints holds {} paints", *count, members.size()));
+  for (const auto& name : members) {
+    const std::string gp = "/paints/" + name;
+    Handle g = h5::open_group(group.get(), name, gp, p);
+    if (!g) continue;
+    AxfPaint paint = read_paint(g.get(), gp, p);
+    if (!paint.name.empty() && paint.name != name)
+      p.add(h5::attr_path(gp, "paint_name"), "'" + paint.name + "' differs from the group name '" + name + "'");
+    if (names) names->push_back(name);
+    out.push_back(std::move(paint));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<AxfPaint> read_axf_library_file(const fs::path& path) {
+  std::vector<std::string> problems;
+  const Problems p{&problems};
+  Handle f = open_file(path, p, true);
+  if (!f) throw_problems(path.string(), problems);
+  Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+  auto fmt_attr = h5::read_attr_string(root.get(), "format", "/", p);
+  if (fmt_attr && *fmt_attr != kAxfLibraryFormat)
+    p.add(h5::attr_path("/", "format"), "'" + *fmt_attr + "' is not '" + kAxfLibraryFormat + "'");
+  if (!problems.empty()) throw_problems(path.string(), problems);
+  auto paints = read_library(root.get(), p, nullptr);
+  if (!problems.empty()) throw_problems(path.string(), problems);
+  return paints;
+}
+
+AxfValidation validate_axf_file(const fs::path& path) {
+  AxfValidation v;
+  const Problems p{&v.problems};
+  Handle f = open_file(path, p, false);
+  if (!f) return v;
+  Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+  if (!root) {
+    p.add("/", "root group cannot be opened (damaged file?)");
+    return v;
+  }
+  std::vector<std::string> ignore;
+  auto fmt_attr = h5::read_attr_string(root.get(), "format", "/", Problems{&ignore});
+  if (fmt_attr && *fmt_attr == kAxfLibraryFormat) {
+    v.format = kAxfLibraryFormat;
+    read_library(root.get(), p, &v.paints);
+  } else {
+    v.format = kAxfFormat;
+    AxfPaint paint = read_paint(root.get(), "/", p);
+    if (!paint.name.empty()) v.paints.push_back(paint.name);
+  }
+  return v;
+}
+
+std::string describe_axf(const AxfPaint& a) {
+  std::string s = fmt::format("paint '{}' (model {})\n", a.name, a.model);
+  if (a.carpaint) {
+    const auto& c = *a.carpaint;
+    s += fmt::format("  carpaint: clear-coat ior {:.4g}, diffuse {:.4g}, colour table {} x {} (scale {:.4g})\n", c.ior,
+                     c.diffuse, c.chi.theta_h_samples, c.chi.theta_i_samples, c.chi.scale);
+    for (std::size_t k = 0; k < c.lobes.size(); ++k)
+      s += fmt::format("    lobe {}: coefficient {:.5g}  spread {:.5g}  F0 {:.5g}\n", k + 1, c.lobes[k].coefficient,
+                       c.lobes[k].spread, c.lobes[k].f0);
+  }
+  if (a.cook_torrance) {
+    const auto& ct = *a.cook_torrance;
+    const auto* sd = ct.stddev ? &*ct.stddev : nullptr;
+    auto pm = [&](double v, double e) { return sd ? fmt::format("{:.5g} +- {:.2g}", v, e) : fmt::format("{:.5g}", v); };
+    s += "  cook-torrance" + std::string(sd ? " (value +- one standard deviation)" : "") + ":\n";
+    const brdf::Rgb kd_sd = sd ? sd->kd : brdf::Rgb::Zero();
+    s += fmt::format("    kd  [{}, {}, {}]\n", pm(ct.params.kd[0], kd_sd[0]), pm(ct.params.kd[1], kd_sd[1]),
+                     pm(ct.params.kd[2], kd_sd[2]));
+    for (std::size_t k = 0; k < ct.params.lobes.size(); ++k) {
+      const auto& l = ct.params.lobes[k];
+      const brdf::CtLobe e = sd ? sd->lobes[k] : brdf::CtLobe{brdf::Rgb::Zero(), 0, 0};
+      s += fmt::format("    lobe {}: ks [{}, {}, {}]  m {}  r {}\n", k + 1, pm(l.ks[0], e.ks[0]), pm(l.ks[1], e.ks[1]),
+                       pm(l.ks[2], e.ks[2]), pm(l.m, e.m), pm(l.r, e.r));
+    }
+  }
+  if (a.flakes)
+    s += fmt::format("  flakes: density {:.4g}, roughness {:.4g}, lifetime {:.3g} deg, {} lobe(s)\n", a.flakes->density,
+                     a.flakes->roughness, a.flakes->lifetime_deg, a.flakes->lobes.size());
+  if (a.fit_quality)
+    s += fmt::format("  fit quality: log RMS {:.4f} over {} bins{}\n", a.fit_quality->log_rms,
+                     a.fit_quality->bins_used, a.fit_quality->converged ? "" : " (did NOT converge)");
+  const auto& pv = a.provenance;
+  auto or_unknown = [](const std::string& x) { return x.empty() ? std::string("unknown") : x; };
+  s += fmt::format("  sample {}, measured {}, rig {}\n", or_unknown(pv.sample_name), or_unknown(pv.measured_utc),
+                   or_unknown(pv.rig_name));
+  s += fmt::format("  exported {} by paintlab {} from {}\n", or_unknown(pv.exported_utc),
+                   or_unknown(pv.software_version), or_unknown(pv.source));
+  if (!pv.session_sha256.empty()) s += "  session sha256 " + pv.session_sha256 + "\n";
+  for (const auto& [file, sum] : pv.calibration_sha256) s += fmt::format("  calibration {} sha256 {}\n", file, sum);
+  return s;
+}
+
+}  // namespace paintlab::fit
