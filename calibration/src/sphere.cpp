@@ -1,0 +1,640 @@
+#include "paintlab/calibration/sphere.h"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <functional>
+#include <cmath>
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+
+#include "paintlab/core/error.h"
+
+namespace paintlab::calib {
+
+void SphereOptions::check() const {
+  if (!(radius_m > 0.0)) throw UsageError("sphere: the sphere radius must be > 0 m (rig.toml geometry.sphere_radius_m)");
+  if (!(sector_arc_px >= 1.0 && sector_arc_px <= 50.0)) throw UsageError("sphere: sector_arc_px must be in [1, 50]");
+  if (!(band_inside_px >= 4.0 && band_outside_px >= 3.0)) throw UsageError("sphere: the profile band is too narrow");
+  if (!(min_snr > 0.0)) throw UsageError("sphere: min_snr must be > 0");
+  if (!(min_step_frac >= 0.0 && min_step_frac <= 1.0)) throw UsageError("sphere: min_step_frac must be in [0, 1]");
+  if (!(outlier_sigmas >= 2.0)) throw UsageError("sphere: outlier_sigmas must be >= 2");
+}
+
+// ---- the limb profile H(x) = int_0^inf sqrt(u) phi(x - u) du ----
+
+namespace {
+
+constexpr double kTableLo = -8.0, kTableHi = 40.0, kTableStep = 1.0 / 32.0;
+
+struct LimbTable {
+  std::vector<double> h, dh;
+  LimbTable() {
+    const int n = static_cast<int>(std::lround((kTableHi - kTableLo) / kTableStep)) + 1;
+    h.resize(static_cast<std::size_t>(n));
+    dh.resize(static_cast<std::size_t>(n));
+    const double inv_sqrt_2pi = 1.0 / std::sqrt(2.0 * kPi);
+    for (int i = 0; i < n; ++i) {
+      const double x = kTableLo + i * kTableStep;
+      // u = v^2 removes the square root: H = int_0^inf 2 v^2 phi(x - v^2) dv,
+      // H' = int_0^inf 2 v^2 (v^2 - x) phi(x - v^2) dv. Simpson's rule.
+      const double vmax = std::sqrt(std::max(x, 0.0) + 10.0);
+      const int m = 4000;
+      const double dv = vmax / m;
+      double sh = 0, sd = 0;
+      for (int k = 0; k <= m; ++k) {
+        const double v = k * dv, z = x - v * v;
+        const double f = 2.0 * v * v * std::exp(-0.5 * z * z) * inv_sqrt_2pi;
+        const double w = (k == 0 || k == m) ? 1.0 : (k % 2 ? 4.0 : 2.0);
+        sh += w * f;
+        sd += w * f * (-z);
+      }
+      h[static_cast<std::size_t>(i)] = sh * dv / 3.0;
+      dh[static_cast<std::size_t>(i)] = sd * dv / 3.0;
+    }
+  }
+};
+
+const LimbTable& limb_table() {
+  static const LimbTable table;
+  return table;
+}
+
+}  // namespace
+
+double limb_profile(double x, double* derivative) {
+  if (x <= kTableLo) {
+    if (derivative) *derivative = 0.0;
+    return 0.0;
+  }
+  if (x >= kTableHi) {  // E[sqrt(x + Z)] ~ sqrt(x) - 1 / (8 x^1.5)
+    if (derivative) *derivative = 0.5 / std::sqrt(x) + 3.0 / (16.0 * std::pow(x, 2.5));
+    return std::sqrt(x) - 1.0 / (8.0 * std::pow(x, 1.5));
+  }
+  const LimbTable& t = limb_table();
+  const double s = (x - kTableLo) / kTableStep;
+  const std::size_t i = std::min(static_cast<std::size_t>(s), t.h.size() - 2);
+  const double u = s - static_cast<double>(i);
+  // Cubic Hermite with the tabulated derivatives: C1 in x, consistent value and slope.
+  const double h0 = t.h[i], h1 = t.h[i + 1], m0 = t.dh[i] * kTableStep, m1 = t.dh[i + 1] * kTableStep;
+  const double u2 = u * u, u3 = u2 * u;
+  const double v = (2 * u3 - 3 * u2 + 1) * h0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * h1 + (u3 - u2) * m1;
+  if (derivative)
+    *derivative = ((6 * u2 - 6 * u) * h0 + (3 * u2 - 4 * u + 1) * m0 + (-6 * u2 + 6 * u) * h1 + (3 * u2 - 2 * u) * m1) /
+                  kTableStep;
+  return v;
+}
+
+namespace {
+
+double limb_h(double x) { return limb_profile(x); }
+template <class T, int N>
+ceres::Jet<T, N> limb_h(const ceres::Jet<T, N>& x) {
+  double d = 0.0;
+  const double v = limb_profile(x.a, &d);
+  return ceres::Jet<T, N>(v, d * x.v);
+}
+
+// Radial profile of one sector: value I at radius r; t = e - r is the distance inside the
+// edge. F(t) = b + (c0 - b) Phi(t/s) + c1 sqrt(s) H(t/s) + c2 s (x Phi(x) + phi(x)).
+// Parameters: e, log s, b, c0, c1, c2.
+struct ProfileCost {
+  const std::vector<double>* r;
+  const std::vector<double>* v;
+  template <class T>
+  bool operator()(const T* p, T* res) const {
+    using std::erf;
+    using std::exp;
+    using std::sqrt;
+    const T s = exp(p[1]);
+    const T sq = sqrt(s);
+    for (std::size_t i = 0; i < r->size(); ++i) {
+      const T x = (p[0] - T((*r)[i])) / s;
+      const T Phi = T(0.5) * (T(1.0) + erf(x * T(M_SQRT1_2)));
+      const T phi = exp(T(-0.5) * x * x) * T(1.0 / std::sqrt(2.0 * kPi));
+      res[i] = p[2] + (p[3] - p[2]) * Phi + p[4] * sq * limb_h(x) + p[5] * s * (x * Phi + phi) - T((*v)[i]);
+    }
+    return true;
+  }
+};
+
+double profile_value(const double* p, double t) {
+  const double s = std::exp(p[1]), x = t / s;
+  const double Phi = 0.5 * (1.0 + std::erf(x * M_SQRT1_2));
+  const double phi = std::exp(-0.5 * x * x) / std::sqrt(2.0 * kPi);
+  return p[2] + (p[3] - p[2]) * Phi + p[4] * std::sqrt(s) * limb_profile(x) + p[5] * s * (x * Phi + phi);
+}
+
+struct SectorEdge {
+  bool ok = false;
+  double e = 0, std = 0, sigma = 0, step = 0, strength = 0;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v, double r0,
+                      const SphereOptions& o) {
+  SectorEdge out;
+  if (r.size() < 16) return out;
+  // Start: background outside, level inside near the edge, edge where the profile crosses
+  // halfway between them.
+  std::vector<double> outside, inside;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (r[i] > r0 + 2.5) outside.push_back(v[i]);
+    if (r[i] < r0 - 1.0 && r[i] > r0 - 4.0) inside.push_back(v[i]);
+  }
+  if (outside.size() < 4 || inside.size() < 4) return out;
+  const double b0 = median(outside), c00 = median(inside);
+  double e0 = r0;
+  {
+    // The best sharp step between the two levels.
+    double best = 1e300;
+    for (double e = r0 - 3.0; e <= r0 + 3.0; e += 0.25) {
+      double cost = 0;
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        if (std::abs(r[i] - e) > 3.0) continue;
+        const double model = r[i] < e ? c00 : b0;
+        cost += (v[i] - model) * (v[i] - model);
+      }
+      if (cost < best) {
+        best = cost;
+        e0 = e;
+      }
+    }
+  }
+  double p[6] = {e0, 0.0, b0, c00, 0.0, 0.0};
+  const int n = static_cast<int>(r.size());
+  auto* cost = new ceres::AutoDiffCostFunction<ProfileCost, ceres::DYNAMIC, 6>(new ProfileCost{&r, &v}, n);
+  std::unique_ptr<ceres::CostFunction> owned(cost);
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  problem.AddResidualBlock(cost, nullptr, p);
+  problem.SetParameterLowerBound(p, 1, std::log(0.1));
+  problem.SetParameterUpperBound(p, 1, std::log(8.0));
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 80;
+  so.function_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-10;
+  so.logging_type = ceres::SILENT;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (summary.termination_type == ceres::FAILURE) return out;
+  const double sigma = std::exp(p[1]);
+  if (!std::isfinite(p[0]) || p[0] < r0 - o.band_inside_px + 2.0 || p[0] > r0 + o.band_outside_px - 2.0) return out;
+  if (!(sigma > 0.11 && sigma < 7.9)) return out;
+
+  std::vector<double> res(static_cast<std::size_t>(n)), jac(static_cast<std::size_t>(n) * 6);
+  const double* params[1] = {p};
+  double* jacs[1] = {jac.data()};
+  if (!cost->Evaluate(params, res.data(), jacs)) return out;
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> J(jac.data(), n, 6);
+  double rss = 0;
+  for (double x : res) rss += x * x;
+  const double s2 = rss / std::max(1, n - 6);
+  Eigen::Matrix<double, 6, 6> JtJ = J.transpose() * J;
+  Eigen::Matrix<double, 6, 6> cov = JtJ.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity()) * s2;
+  if (!(cov(0, 0) > 0) || !std::isfinite(cov(0, 0))) return out;
+  // Edge strength: the model just inside the edge against the background.
+  double strength = 0;
+  for (double t = 1.0; t <= 3.0; t += 0.5) strength = std::max(strength, std::abs(profile_value(p, t) - p[2]));
+  if (!(strength > o.min_snr * std::sqrt(s2))) return out;
+  if (std::abs(p[3] - p[2]) < o.min_step_frac * std::abs(profile_value(p, 3.0) - p[2])) return out;
+  out.ok = true;
+  out.e = p[0];
+  out.std = std::sqrt(cov(0, 0));
+  out.sigma = sigma;
+  out.step = p[3] - p[2];
+  out.strength = strength;
+  return out;
+}
+
+// Coarse circle: the largest bright blob.
+bool coarse_circle(const ImageF& img, Vec2* centre, double* radius) {
+  cv::Mat m(img.height(), img.width(), CV_32F, const_cast<float*>(img.data()));
+  std::vector<float> sample;
+  for (int y = 0; y < m.rows; y += 2)
+    for (int x = 0; x < m.cols; x += 2) sample.push_back(m.at<float>(y, x));
+  auto q = [&](double f) {
+    auto it = sample.begin() + static_cast<std::ptrdiff_t>(f * static_cast<double>(sample.size() - 1));
+    std::nth_element(sample.begin(), it, sample.end());
+    return static_cast<double>(*it);
+  };
+  const double lo = q(0.05), hi = q(0.999);
+  if (!(hi > lo)) return false;
+  cv::Mat mask = m > static_cast<float>(lo + 0.12 * (hi - lo));
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  int best = -1, area = 0;
+  for (int i = 1; i < n; ++i)
+    if (stats.at<int>(i, cv::CC_STAT_AREA) > area) {
+      area = stats.at<int>(i, cv::CC_STAT_AREA);
+      best = i;
+    }
+  if (best < 0 || area < 50) return false;
+  cv::Mat blob = labels == best;
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(blob, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  if (contours.empty()) return false;
+  std::size_t big = 0;
+  for (std::size_t i = 1; i < contours.size(); ++i)
+    if (contours[i].size() > contours[big].size()) big = i;
+  cv::Point2f c;
+  float r = 0;
+  cv::minEnclosingCircle(contours[big], c, r);
+  *centre = Vec2(c.x, c.y);
+  *radius = r;
+  return true;
+}
+
+// Edge points of one image around a centre, with the expected edge radius per angle.
+std::vector<EdgePoint> find_edges(const ImageF& img, const Vec2& c, const std::function<double(double)>& r0_of,
+                                  double r_max, const SphereOptions& o, int image_index) {
+  const int K = std::max(32, static_cast<int>(std::lround(2.0 * kPi * r_max / o.sector_arc_px)));
+  std::vector<std::vector<double>> rs(static_cast<std::size_t>(K)), vs(static_cast<std::size_t>(K));
+  std::vector<double> r0(static_cast<std::size_t>(K));
+  for (int k = 0; k < K; ++k) r0[static_cast<std::size_t>(k)] = r0_of(-kPi + (k + 0.5) * 2.0 * kPi / K);
+  const double reach = r_max + o.band_outside_px + 1.0;
+  const int x0 = std::max(0, static_cast<int>(std::floor(c.x() - reach)));
+  const int x1 = std::min(img.width() - 1, static_cast<int>(std::ceil(c.x() + reach)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(c.y() - reach)));
+  const int y1 = std::min(img.height() - 1, static_cast<int>(std::ceil(c.y() + reach)));
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const double dx = x - c.x(), dy = y - c.y();
+      const double r = std::hypot(dx, dy);
+      const double phi = std::atan2(dy, dx);
+      int k = static_cast<int>(std::floor((phi + kPi) / (2.0 * kPi) * K));
+      k = std::clamp(k, 0, K - 1);
+      const double rk = r0[static_cast<std::size_t>(k)];
+      if (r < rk - o.band_inside_px || r > rk + o.band_outside_px) continue;
+      rs[static_cast<std::size_t>(k)].push_back(r);
+      vs[static_cast<std::size_t>(k)].push_back(img.at(x, y));
+    }
+  // A sector that reaches the image border has a truncated profile: skip it.
+  std::vector<EdgePoint> out;
+  for (int k = 0; k < K; ++k) {
+    const double phi = -kPi + (k + 0.5) * 2.0 * kPi / K;
+    const double rk = r0[static_cast<std::size_t>(k)];
+    const Vec2 far = c + (rk + o.band_outside_px + 1.0) * Vec2(std::cos(phi), std::sin(phi));
+    if (far.x() < 0 || far.y() < 0 || far.x() > img.width() - 1 || far.y() > img.height() - 1) continue;
+    SectorEdge s = fit_sector(rs[static_cast<std::size_t>(k)], vs[static_cast<std::size_t>(k)], rk, o);
+    if (!s.ok) continue;
+    EdgePoint e;
+    e.px = c + s.e * Vec2(std::cos(phi), std::sin(phi));
+    e.angle_rad = phi;
+    e.std_px = std::max(s.std, 0.005);
+    e.sigma_px = s.sigma;
+    e.step = s.step;
+    e.image = image_index;
+    out.push_back(e);
+  }
+  return out;
+}
+
+// ---- cone fit ----
+
+struct ConeCost {
+  Vec3 ray;
+  Vec3 d0, e1, e2;
+  double weight;  // focal length / std (px per rad / px)
+  template <class T>
+  bool operator()(const T* ab, const T* alpha, T* res) const {
+    using std::atan2;
+    using std::sqrt;
+    const T dx = T(d0.x()) + ab[0] * T(e1.x()) + ab[1] * T(e2.x());
+    const T dy = T(d0.y()) + ab[0] * T(e1.y()) + ab[1] * T(e2.y());
+    const T dz = T(d0.z()) + ab[0] * T(e1.z()) + ab[1] * T(e2.z());
+    const T cx = T(ray.y()) * dz - T(ray.z()) * dy;
+    const T cy = T(ray.z()) * dx - T(ray.x()) * dz;
+    const T cz = T(ray.x()) * dy - T(ray.y()) * dx;
+    const T dot = T(ray.x()) * dx + T(ray.y()) * dy + T(ray.z()) * dz;
+    const T angle = atan2(sqrt(cx * cx + cy * cy + cz * cz), dot);
+    res[0] = (angle - alpha[0]) * T(weight);
+    return true;
+  }
+};
+
+// The cone's axis is d0 + a e1 + b e2 (normalised) around a start axis d0.
+struct Cone {
+  Vec3 d = Vec3::UnitZ();
+  double alpha = 0;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();  // of (a, b, alpha)
+  Vec3 d0 = Vec3::UnitZ(), e1 = Vec3::UnitX(), e2 = Vec3::UnitY();
+  double a = 0, b = 0;
+  bool ok = false;
+};
+
+void tangent_basis(const Vec3& d, Vec3* e1, Vec3* e2) {
+  *e1 = d.unitOrthogonal();
+  *e2 = d.cross(*e1);
+}
+
+Cone fit_cone(const std::vector<Vec3>& rays, const std::vector<double>& weights, const Vec3& d_start,
+              double alpha_start) {
+  Cone c;
+  const Vec3 d0 = d_start.normalized();
+  c.d0 = d0;
+  tangent_basis(d0, &c.e1, &c.e2);
+  double ab[2] = {0.0, 0.0};
+  double alpha = alpha_start;
+  ceres::Problem problem;
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ConeCost, 1, 2, 1>(new ConeCost{rays[i], d0, c.e1, c.e2, weights[i]}),
+        new ceres::HuberLoss(3.0), ab, &alpha);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 100;
+  so.function_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-14;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (summary.termination_type == ceres::FAILURE) return c;
+  ceres::Covariance::Options co;
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> blocks = {{ab, ab}, {ab, &alpha}, {&alpha, &alpha}};
+  if (cov.Compute(blocks, &problem)) {
+    double cab[4], caa[2], cal[1];
+    cov.GetCovarianceBlock(ab, ab, cab);
+    cov.GetCovarianceBlock(ab, &alpha, caa);
+    cov.GetCovarianceBlock(&alpha, &alpha, cal);
+    c.cov << cab[0], cab[1], caa[0], cab[2], cab[3], caa[1], caa[0], caa[1], cal[0];
+    // Scale by the reduced chi-square: the edge standard deviations are only estimates.
+    const double dof = std::max<double>(1.0, static_cast<double>(rays.size()) - 3.0);
+    c.cov *= std::max(1.0, 2.0 * summary.final_cost / dof);
+  }
+  c.a = ab[0];
+  c.b = ab[1];
+  c.d = (d0 + ab[0] * c.e1 + ab[1] * c.e2).normalized();
+  c.alpha = alpha;
+  c.ok = true;
+  return c;
+}
+
+Vec3 cone_centre(const Vec3& d0, const Vec3& e1, const Vec3& e2, double a, double b, double alpha, double radius) {
+  return (d0 + a * e1 + b * e2).normalized() * (radius / std::sin(alpha));
+}
+
+}  // namespace
+
+std::optional<Vec3> intersect_sphere(const Vec3& dir, const Vec3& centre, double radius) {
+  const Vec3 d = dir.normalized();
+  const double b = d.dot(centre);
+  const double c = centre.squaredNorm() - radius * radius;
+  const double disc = b * b - c;
+  if (disc < 0) return std::nullopt;
+  const double t = b - std::sqrt(disc);
+  if (t <= 0) return std::nullopt;
+  return d * t;
+}
+
+std::vector<Vec2> silhouette_points(const CameraModel& camera, const Vec3& centre_cam, double radius, int n) {
+  const double D = centre_cam.norm();
+  const Vec3 d = centre_cam / D;
+  const double alpha = std::asin(std::min(1.0, radius / D));
+  Vec3 e1, e2;
+  tangent_basis(d, &e1, &e2);
+  std::vector<Vec2> out;
+  for (int i = 0; i < n; ++i) {
+    const double t = 2.0 * kPi * i / n;
+    const Vec3 r = std::cos(alpha) * d + std::sin(alpha) * (std::cos(t) * e1 + std::sin(t) * e2);
+    out.push_back(camera.project(r));
+  }
+  return out;
+}
+
+SphereFit fit_sphere(const std::vector<SphereImage>& images, const CameraModel& camera, const SphereOptions& options) {
+  options.check();
+  if (images.empty()) throw UsageError("sphere: no images given");
+  SphereFit fit;
+  fit.radius_m = options.radius_m;
+  const double f = 0.5 * (camera.fx() + camera.fy());
+
+  // Pass 1: coarse circle per image, edges around it, cone fit.
+  std::vector<EdgePoint> edges;
+  std::vector<Vec2> centres;
+  std::vector<double> radii;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const ImageF& img = images[i].pixels;
+    if (img.channels() != 1) throw DataError("sphere: image '" + images[i].name + "' must have 1 channel");
+    if (img.width() != camera.width_px || img.height() != camera.height_px)
+      throw DataError(fmt::format("sphere: image '{}' is {}x{}, the camera {}x{}", images[i].name, img.width(),
+                                  img.height(), camera.width_px, camera.height_px));
+    Vec2 c = options.approx_centre_px;
+    double r = options.approx_radius_px;
+    if (!(r > 0) && !coarse_circle(img, &c, &r))
+      throw CalibrationError("sphere: no bright sphere found in '" + images[i].name + "' (is the LED on, the exposure long enough?)");
+    centres.push_back(c);
+    radii.push_back(r);
+    auto more = find_edges(img, c, [r](double) { return r; }, r, options, static_cast<int>(i));
+    edges.insert(edges.end(), more.begin(), more.end());
+  }
+
+  auto solve = [&](std::vector<EdgePoint>& pts, Cone* cone) {
+    // Start: the mean ray and the mean angle to it.
+    for (int round = 0; round < 3; ++round) {
+      std::vector<Vec3> rays;
+      std::vector<double> w;
+      std::vector<std::size_t> idx;
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        if (round > 0 && !pts[i].used) continue;
+        rays.push_back(camera.ray(pts[i].px));
+        w.push_back(f / pts[i].std_px);
+        idx.push_back(i);
+      }
+      if (rays.size() < 12) return false;
+      Vec3 d_start = round == 0 ? Vec3::Zero() : cone->d;
+      double alpha_start = round == 0 ? 0.0 : cone->alpha;
+      if (round == 0) {
+        for (const Vec3& r : rays) d_start += r;
+        d_start.normalize();
+        for (const Vec3& r : rays) alpha_start += angle_between(r, d_start) / rays.size();
+      }
+      *cone = fit_cone(rays, w, d_start, alpha_start);
+      if (!cone->ok) return false;
+      // Residuals in px (+ outside) and robust outlier rejection.
+      std::vector<double> absres;
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        pts[i].residual_px = (angle_between(camera.ray(pts[i].px), cone->d) - cone->alpha) * f;
+        absres.push_back(std::abs(pts[i].residual_px));
+      }
+      const double robust = std::max(1.4826 * median(absres), 0.01);
+      for (auto& p : pts) p.used = std::abs(p.residual_px) <= options.outlier_sigmas * robust;
+    }
+    return true;
+  };
+
+  Cone cone;
+  for (auto& e : edges) e.used = true;
+  if (!solve(edges, &cone))
+    throw CalibrationError(fmt::format("sphere: only {} silhouette edge points found (need >= 12): the sphere must "
+                                       "stand out from the background along its outline",
+                                       edges.size()));
+
+  // Pass 2: sectors around the fitted silhouette (expected edge radius per angle).
+  const Vec3 centre1 = cone.d * (options.radius_m / std::sin(cone.alpha));
+  std::vector<Vec2> sil = silhouette_points(camera, centre1, options.radius_m, 2048);
+  Vec2 sc = Vec2::Zero();
+  for (const Vec2& p : sil) sc += p / static_cast<double>(sil.size());
+  std::vector<std::pair<double, double>> polar;  // angle, radius
+  double rmax = 0;
+  for (const Vec2& p : sil) {
+    polar.emplace_back(std::atan2(p.y() - sc.y(), p.x() - sc.x()), (p - sc).norm());
+    rmax = std::max(rmax, (p - sc).norm());
+  }
+  std::sort(polar.begin(), polar.end());
+  auto r_of = [&polar](double phi) {
+    auto it = std::lower_bound(polar.begin(), polar.end(), std::make_pair(phi, -1.0));
+    const auto& hi = it == polar.end() ? polar.front() : *it;
+    const auto& lo = it == polar.begin() ? polar.back() : *(it - 1);
+    double span = hi.first - lo.first;
+    if (span <= 0) span += 2.0 * kPi;
+    double t = phi - lo.first;
+    if (t < 0) t += 2.0 * kPi;
+    return lo.second + (hi.second - lo.second) * std::clamp(t / span, 0.0, 1.0);
+  };
+  edges.clear();
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    auto more = find_edges(images[i].pixels, sc, r_of, rmax, options, static_cast<int>(i));
+    edges.insert(edges.end(), more.begin(), more.end());
+  }
+  for (auto& e : edges) e.used = true;
+  if (!solve(edges, &cone)) throw CalibrationError("sphere: the refined silhouette lost its edge points");
+
+  // Results.
+  fit.axis = cone.d;
+  fit.half_angle_rad = cone.alpha;
+  fit.centre_cam_m = cone.d * (options.radius_m / std::sin(cone.alpha));
+  {
+    // Covariance of the centre: numeric Jacobian of (a, b, alpha) -> centre at the solution.
+    Eigen::Matrix3d J;
+    const double h = 1e-7;
+    for (int k = 0; k < 3; ++k) {
+      double dp[3] = {0, 0, 0};
+      dp[k] = h;
+      Vec3 plus = cone_centre(cone.d0, cone.e1, cone.e2, cone.a + dp[0], cone.b + dp[1], cone.alpha + dp[2], options.radius_m);
+      dp[k] = -h;
+      Vec3 minus = cone_centre(cone.d0, cone.e1, cone.e2, cone.a + dp[0], cone.b + dp[1], cone.alpha + dp[2], options.radius_m);
+      J.col(k) = (plus - minus) / (2 * h);
+    }
+    fit.centre_cov_m2 = J * cone.cov * J.transpose();
+  }
+  std::vector<double> sig_strong, sig_all;
+  double ss = 0;
+  for (const auto& e : edges) {
+    ++fit.edges_total;
+    if (!e.used) continue;
+    ++fit.edges_used;
+    ss += e.residual_px * e.residual_px;
+    fit.max_px = std::max(fit.max_px, std::abs(e.residual_px));
+    sig_all.push_back(e.sigma_px);
+  }
+  fit.rms_px = std::sqrt(ss / std::max(1, fit.edges_used));
+  // Focus: the blur of edges that are steps (the inside value at the edge carries most of
+  // the contrast), else of all edges.
+  double max_step = 0;
+  for (const auto& e : edges)
+    if (e.used) max_step = std::max(max_step, std::abs(e.step));
+  for (const auto& e : edges)
+    if (e.used && std::abs(e.step) >= 0.5 * max_step) sig_strong.push_back(e.sigma_px);
+  fit.edge_sigma_px = median(sig_strong.size() >= 8 ? sig_strong : sig_all);
+  fit.edge_width_px = 2.5631 * fit.edge_sigma_px;
+  // Coverage: fraction of 5-degree bins around the outline with a used point.
+  std::vector<bool> bins(72, false);
+  for (const auto& e : edges)
+    if (e.used) bins[static_cast<std::size_t>(std::clamp(static_cast<int>((e.angle_rad + kPi) / (2 * kPi) * 72), 0, 71))] = true;
+  fit.coverage = static_cast<double>(std::count(bins.begin(), bins.end(), true)) / 72.0;
+
+  // Free ellipse in the undistorted image (shape diagnostic).
+  std::vector<cv::Point2f> und;
+  for (const auto& e : edges) {
+    if (!e.used) continue;
+    Vec2 n = camera.normalized(e.px);
+    und.emplace_back(static_cast<float>(camera.fx() * n.x() + camera.cx()), static_cast<float>(camera.fy() * n.y() + camera.cy()));
+  }
+  if (und.size() >= 6) {
+    cv::RotatedRect el = cv::fitEllipseDirect(und);
+    const double a = 0.5 * el.size.width, b = 0.5 * el.size.height, th = deg_to_rad(el.angle);
+    fit.ellipse_centre_px = Vec2(el.center.x, el.center.y);
+    fit.ellipse_axes_px = Vec2(a, b);
+    fit.ellipse_angle_deg = el.angle;
+    double es = 0;
+    for (const auto& p : und) {
+      const double dx = p.x - el.center.x, dy = p.y - el.center.y;
+      const double x = std::cos(th) * dx + std::sin(th) * dy, y = -std::sin(th) * dx + std::cos(th) * dy;
+      const double k = std::sqrt(x * x / (a * a) + y * y / (b * b));
+      const double gx = x / (a * a * k), gy = y / (b * b * k);
+      const double d = (k - 1.0) / std::hypot(gx, gy);
+      es += d * d;
+    }
+    fit.ellipse_rms_px = std::sqrt(es / und.size());
+  }
+  fit.edges = std::move(edges);
+  fit.provenance = Provenance::make("sphere", {});
+  return fit;
+}
+
+Vec3 SphereFit::centre_std_m() const {
+  return Vec3(std::sqrt(std::max(0.0, centre_cov_m2(0, 0))), std::sqrt(std::max(0.0, centre_cov_m2(1, 1))),
+              std::sqrt(std::max(0.0, centre_cov_m2(2, 2))));
+}
+
+Json SphereFit::to_json() const {
+  return {{"radius_m", radius_m},
+          {"centre_cam_m", vector3_to_json(centre_cam_m)},
+          {"centre_std_m", vector3_to_json(centre_std_m())},
+          {"centre_cov_m2", matrix_to_json(centre_cov_m2)},
+          {"axis", vector3_to_json(axis)},
+          {"half_angle_deg", rad_to_deg(half_angle_rad)},
+          {"rms_px", rms_px},
+          {"max_px", max_px},
+          {"ellipse",
+           {{"rms_px", ellipse_rms_px},
+            {"centre_px", Json::array({ellipse_centre_px.x(), ellipse_centre_px.y()})},
+            {"semi_axes_px", Json::array({ellipse_axes_px.x(), ellipse_axes_px.y()})},
+            {"angle_deg", ellipse_angle_deg}}},
+          {"edge_sigma_px", edge_sigma_px},
+          {"edge_width_px", edge_width_px},
+          {"edges_used", edges_used},
+          {"edges_total", edges_total},
+          {"coverage", coverage},
+          {"provenance", provenance.to_json()}};
+}
+
+SphereFit SphereFit::from_json(const Json& j, const std::string& where) {
+  SphereFit s;
+  s.radius_m = json_get<double>(j, "radius_m", where);
+  if (!j.contains("centre_cam_m")) throw DataError(where + ": missing key 'centre_cam_m'");
+  s.centre_cam_m = vector3_from_json(j.at("centre_cam_m"), where + ": key 'centre_cam_m'");
+  if (j.contains("centre_cov_m2")) s.centre_cov_m2 = matrix_from_json(j.at("centre_cov_m2"), where + ": key 'centre_cov_m2'");
+  s.axis = s.centre_cam_m.normalized();
+  s.half_angle_rad = std::asin(std::min(1.0, s.radius_m / s.centre_cam_m.norm()));
+  s.rms_px = json_get<double>(j, "rms_px", where);
+  s.max_px = json_get_or<double>(j, "max_px", 0.0, where);
+  if (j.contains("ellipse")) s.ellipse_rms_px = json_get_or<double>(j.at("ellipse"), "rms_px", 0.0, where);
+  s.edge_sigma_px = json_get_or<double>(j, "edge_sigma_px", std::numeric_limits<double>::quiet_NaN(), where);
+  s.edge_width_px = json_get_or<double>(j, "edge_width_px", std::numeric_limits<double>::quiet_NaN(), where);
+  s.edges_used = json_get_or<int>(j, "edges_used", 0, where);
+  s.edges_total = json_get_or<int>(j, "edges_total", 0, where);
+  s.coverage = json_get_or<double>(j, "coverage", 0.0, where);
+  if (!(s.radius_m > 0) || !(s.centre_cam_m.z() > s.radius_m))
+    throw DataError(where + ": the sphere must lie in front of the camera (centre z > radius)");
+  if (j.contains("provenance")) s.provenance = Provenance::from_json(j.at("provenance"), where);
+  return s;
+}
+
+void SphereFit::save(const std::filesystem::path& path) const { write_json_file(path, to_json()); }
+
+SphereFit SphereFit::load(const std::filesystem::path& path) { return from_json(read_json_file(path), path.string()); }
+
+}  // namespace paintlab::calib
