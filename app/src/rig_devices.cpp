@@ -85,7 +85,10 @@ RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& opti
       d.light = std::make_unique<dev::GpiodLight>(dev::gpiod_config(rig.light));
   }
   if (options.camera) {
-    auto cam = dev::AravisCamera::open(dev::camera_config(rig.camera, rig.geometry));
+    dev::AravisCameraConfig cc = dev::camera_config(rig.camera, rig.geometry);
+    // The simulated sensor's readout time unless the rig gives one.
+    if (rig.camera.kind == "sim" && cc.readout_s == 0.0) cc.readout_s = d.sim->world().config().sensor.readout_s;
+    auto cam = dev::AravisCamera::open(cc);
     if (!cam) throw cam.error();
     d.camera = std::move(*cam);
   }

@@ -223,8 +223,8 @@ ModbusFaults TurntableServer::faults() const {
 
 namespace {
 
-// Position (counts) of the motion at time t; finishes the move when its time is up.
-double position_at(TurntableServer* /*unused*/, double t, bool active, double pos0, double target, double t0,
+// Position (counts) of the motion at time t: the target once the move's time is up.
+double position_at(double t, bool active, double pos0, double target, double t0,
                    double dir, const dev::TrapezoidProfile& p) {
   if (!active || t - t0 >= p.duration()) return target;
   return pos0 + dir * p.position_at(t - t0);
@@ -235,7 +235,7 @@ double position_at(TurntableServer* /*unused*/, double t, bool active, double po
 double TurntableServer::angle_deg() const {
   std::lock_guard lock(mutex_);
   const State& s = *state_;
-  double c = position_at(nullptr, clock_.now_s(), s.active, s.pos0, s.target, s.t0, s.dir, s.profile);
+  double c = position_at(clock_.now_s(), s.active, s.pos0, s.target, s.t0, s.dir, s.profile);
   double deg = c / options_.scale.counts_per_deg;
   return options_.wrap ? dev::wrap_deg(deg) : deg;
 }
@@ -381,7 +381,7 @@ void TurntableServer::handle(void* vctx, int fd, const std::uint8_t* q, int leng
 
   // Motion state and outputs at `now`.
   const double rev = std::llround(360.0 * options_.scale.counts_per_deg);
-  auto current = [&] { return position_at(this, now, s.active, s.pos0, s.target, s.t0, s.dir, s.profile); };
+  auto current = [&] { return position_at(now, s.active, s.pos0, s.target, s.t0, s.dir, s.profile); };
   auto finish_if_done = [&] {
     if (s.active && now - s.t0 >= s.profile.duration()) {
       s.active = false;

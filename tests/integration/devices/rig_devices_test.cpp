@@ -60,6 +60,7 @@ TEST(RigDevices, SimulatedRigThroughTheRealDrivers) {
   ASSERT_TRUE(d.turntable && d.light && d.camera && d.clock && d.sim);
   EXPECT_THAT(d.turntable->id(), ::testing::HasSubstr("modbus-tcp 127.0.0.1:"));
   EXPECT_EQ(d.camera->id(), "camera aravis 127.0.0.1");
+  EXPECT_DOUBLE_EQ(d.camera->readout_s(), d.sim->world().config().sensor.readout_s);
 
   const double t0 = d.clock->now_s();
   ASSERT_TRUE(d.turntable->move_to(30.0));
