@@ -25,6 +25,8 @@ AravisCameraConfig camera_config(const DeviceSection& section, const RigGeometry
   // The simulated sensor has the rig's size unless the section says otherwise.
   if (sim && c.width_px == 0) c.width_px = geometry.image_width_px;
   if (sim && c.height_px == 0) c.height_px = geometry.image_height_px;
+  // Loopback carries large packets: fewer packets per frame than negotiation picks.
+  if (sim && c.packet_size == 0) c.packet_size = 8192;
   return c;
 }
 

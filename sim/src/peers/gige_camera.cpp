@@ -276,6 +276,9 @@ void GigeCamera::start() {
   put_string(0x48, 32, "paintlab");
   put_string(0x68, 32, "PaintlabSim");
   arv_fake_camera_set_fill_pattern(fake, &Impl::on_fill, this);
+  // In trigger mode the fake polls for a trigger at this rate (default 25 Hz: up to 40 ms
+  // per frame of pure waiting).
+  arv_fake_camera_set_trigger_frequency(fake, 1000.0);
   impl_->gv = gv;
   impl_->fake = fake;
 }
