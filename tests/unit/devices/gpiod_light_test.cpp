@@ -93,22 +93,22 @@ TEST(GpiodLight, ExceptionUnwindingSwitchesOff) {
 
 TEST(GpiodLight, MaximumOnTimeSwitchesOff) {
   fake::reset();
-  GpiodLight led(config(0.1));
+  GpiodLight led(config(0.3));
   ASSERT_TRUE(led.on());
-  std::this_thread::sleep_for(std::chrono::milliseconds(40));
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
   ASSERT_TRUE(led.on());  // a second on() does not extend the switch-on
   EXPECT_EQ(fake::state().wire, 1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  std::this_thread::sleep_for(std::chrono::milliseconds(550));
   EXPECT_EQ(fake::state().wire, 0);
   auto on = led.is_on();
   ASSERT_TRUE(on);
   EXPECT_FALSE(*on);
   EXPECT_EQ(led.max_on_trips(), 1);
-  // Switching on again starts a new on-time.
+  // Switching on again starts a new on-time; switching off stops the watchdog.
   ASSERT_TRUE(led.on());
   EXPECT_EQ(fake::state().wire, 1);
   ASSERT_TRUE(led.off());
-  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
   EXPECT_EQ(led.max_on_trips(), 1);
 }
 
