@@ -93,13 +93,13 @@ TEST(GpiodLight, ExceptionUnwindingSwitchesOff) {
 
 TEST(GpiodLight, MaximumOnTimeSwitchesOff) {
   fake::reset();
-  GpiodLight led(config(0.3));
+  GpiodLight led(config(0.5));
   ASSERT_TRUE(led.on());
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  ASSERT_TRUE(led.on());  // a second on() does not extend the switch-on
+  std::this_thread::sleep_for(std::chrono::milliseconds(350));
   EXPECT_EQ(fake::state().wire, 1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(550));
-  EXPECT_EQ(fake::state().wire, 0);
+  ASSERT_TRUE(led.on());  // a second on() does not extend the switch-on ...
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(fake::state().wire, 0);  // ... off at 0.5 s, not at 0.85 s
   auto on = led.is_on();
   ASSERT_TRUE(on);
   EXPECT_FALSE(*on);
@@ -108,7 +108,7 @@ TEST(GpiodLight, MaximumOnTimeSwitchesOff) {
   ASSERT_TRUE(led.on());
   EXPECT_EQ(fake::state().wire, 1);
   ASSERT_TRUE(led.off());
-  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
   EXPECT_EQ(led.max_on_trips(), 1);
 }
 
