@@ -33,22 +33,30 @@ inline CameraModel truth_camera(const sim::SimWorld& w) {
 // One exposure of a radiance image whose brightest pixels reach `fill` of the ADC range;
 // returns black-level-subtracted values linearised with the sensor's true response (what
 // a calibrated response curve gives), in ADC units, and the exposure used.
+// `quantile` picks the pixel that reaches `fill`: 0.999 lets a few small highlights clip,
+// 1.0 keeps every pixel below saturation.
 inline ImageF expose_linear(sim::SimWorld& w, const ImageF& radiance, double fill = 0.7, double* exposure_s = nullptr,
-                            Image<std::uint16_t>* raw_out = nullptr) {
+                            Image<std::uint16_t>* raw_out = nullptr, double quantile = 0.999) {
   const auto& sp = w.config().sensor;
+  const double span = sp.adc_max_dn() - sp.black_level_dn;
   sim::ExposureSettings es;
   es.exposure_s = 0.01;
   es.frame_index = 1;
-  Image<std::uint16_t> raw = w.sensor().expose(radiance, es);
-  std::vector<std::uint16_t> v(raw.values());
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() * 999 / 1000), v.end());
-  const double p999 = v[v.size() * 999 / 1000] - sp.black_level_dn;
-  es.exposure_s *= std::clamp(fill * (sp.adc_max_dn() - sp.black_level_dn) / std::max(p999, 1.0), 0.01, 1000.0);
+  double level = 0;
+  for (int tries = 0; tries < 12; ++tries) {  // a clipped probe says nothing: shorten until it is not
+    Image<std::uint16_t> probe = w.sensor().expose(radiance, es);
+    std::vector<std::uint16_t> v(probe.values());
+    const std::size_t q = std::min(v.size() - 1, static_cast<std::size_t>(quantile * static_cast<double>(v.size() - 1)));
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(q), v.end());
+    level = v[q] - sp.black_level_dn;
+    if (level < 0.9 * span) break;
+    es.exposure_s *= 0.1;
+  }
+  es.exposure_s *= std::clamp(fill * span / std::max(level, 1.0), 0.01, 1000.0);
   es.frame_index = 2;
-  raw = w.sensor().expose(radiance, es);
+  Image<std::uint16_t> raw = w.sensor().expose(radiance, es);
   if (exposure_s) *exposure_s = es.exposure_s;
   ImageF out(raw.width(), raw.height(), 1);
-  const double span = sp.adc_max_dn() - sp.black_level_dn;
   for (std::size_t i = 0; i < raw.size(); ++i) {
     const double x = (raw.values()[i] - sp.black_level_dn) / span;
     out.values()[i] = static_cast<float>(x > 0 ? w.response().inverse(x) * span : x * span);

@@ -1,0 +1,97 @@
+// LED positions from specular highlights on the simulated rig: light direction, arm radius,
+// height and zero offset against the simulator's truth.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <memory>
+
+#include "paintlab/brdf/cook_torrance.h"
+#include "paintlab/calibration/light.h"
+#include "paintlab/core/error.h"
+#include "sim_scenes.h"
+#include "test_util.h"
+
+using namespace paintlab;
+using namespace paintlab::calib;
+using namespace paintlab::calib::testing;
+
+namespace {
+
+// A glossy black calibration sphere: little diffuse, one Beckmann lobe of m = 0.03.
+sim::SimPaint glossy_black() {
+  brdf::CtLobe lobe;
+  lobe.ks = brdf::Rgb(0.6, 0.6, 0.6);
+  lobe.m = 0.03;
+  lobe.r = 0.05;
+  sim::SimPaint p;
+  p.brdf = std::make_shared<brdf::CookTorrance>(brdf::Rgb(0.01, 0.01, 0.01), std::vector<brdf::CtLobe>{lobe});
+  return p;
+}
+
+// The light step in isolation: the true sphere, and the camera blur the sphere step
+// measures on this rig (psf_sigma_px = 0.5).
+SphereFit truth_sphere(const sim::SimWorld& w) {
+  SphereFit s;
+  s.radius_m = w.sphere_radius_m();
+  s.centre_cam_m = w.sphere_centre_cam();
+  s.edge_sigma_px = w.config().camera.psf_sigma_px;
+  return s;
+}
+
+}  // namespace
+
+TEST(LightSim, LedCircleFromHighlightsMatchesTheTruth) {
+  sim::SimWorld world(sim_rig_config());
+  const sim::SimPaint ball = glossy_black();
+  std::vector<HighlightImage> images;
+  // Both sides of the camera: the arm radius is seen through parallax only (light.h).
+  for (double a = -150; a <= 150.0; a += 20.0)
+    images.push_back({a, "glossy-" + std::to_string(static_cast<int>(a)),
+                      expose_linear(world, world.render_with(ball, a, true), 0.8, nullptr, nullptr, 1.0)});
+  const SphereFit sphere = truth_sphere(world);
+  RigConfig rig = RigConfig::load(test::source_dir() / "examples" / "rig-sim.toml");
+  LightCalibration cal = calibrate_light(images, truth_camera(world), sphere, rig.geometry);
+  const Vec3 C = world.sphere_centre_cam();
+  double worst_dir = 0, worst_pos = 0;
+  for (const auto& h : cal.highlights) {
+    ASSERT_TRUE(h.found) << h.name << ": " << h.reason;
+    const Vec3 fit = cal.model.led_position_cam(h.table_angle_deg), truth = world.led_position_cam(h.table_angle_deg);
+    worst_dir = std::max(worst_dir, rad_to_deg(angle_between(fit - C, truth - C)));
+    worst_pos = std::max(worst_pos, (fit - truth).norm());
+  }
+  const auto& led = world.config().led;
+  // The truth's height is above the rig origin; ours above the sphere centre.
+  const double truth_height = led.arm_height_m - world.sphere_centre_rig().z();
+  std::printf("light: %d/%zu highlights, rms %.4f deg, max %.4f deg; arm radius %.5f m (true %.5f, %+.3f %%, std %.5f), "
+              "height %.5f m (true %.5f), zero %.4f deg; worst LED direction error %.4f deg, worst position %.2f mm\n",
+              cal.used, cal.highlights.size(), cal.rms_deg, cal.max_deg, cal.model.arm_radius_m, led.arm_radius_m,
+              100 * (cal.model.arm_radius_m / led.arm_radius_m - 1), cal.arm_radius_std_m, cal.model.arm_height_m,
+              truth_height, cal.model.zero_deg, worst_dir, worst_pos * 1e3);
+  EXPECT_EQ(cal.used, static_cast<int>(images.size()));
+  EXPECT_LT(worst_dir, 0.1);
+  EXPECT_THAT(cal.model.arm_radius_m, test::NearRel(led.arm_radius_m, 0.002));
+  EXPECT_NEAR(cal.model.arm_height_m, truth_height, 0.002);
+  EXPECT_LT(cal.rms_deg, 0.02);
+  EXPECT_NEAR(cal.model.zero_deg, led.zero_deg - rad_to_deg(std::atan2(world.camera().centre_rig().y(), world.camera().centre_rig().x())), 0.05);
+  test::TempDir dir;
+  cal.save(dir / "light.json");
+  LightCalibration back = LightCalibration::load(dir / "light.json");
+  EXPECT_LT((back.model.led_position_cam(37.0) - cal.model.led_position_cam(37.0)).norm(), 1e-9);
+  EXPECT_EQ(back.highlights.size(), cal.highlights.size());
+}
+
+TEST(LightSim, LedOffGivesNoHighlightAndTheFitNamesTheImages) {
+  sim::SimWorld world(sim_rig_config());
+  const sim::SimPaint ball = glossy_black();
+  std::vector<HighlightImage> images;
+  for (double a : {0.0, 30.0}) images.push_back({a, "dark-" + std::to_string(static_cast<int>(a)),
+                                                       expose_linear(world, world.render_with(ball, a, false), 0.8)});
+  RigConfig rig = RigConfig::load(test::source_dir() / "examples" / "rig-sim.toml");
+  try {
+    calibrate_light(images, truth_camera(world), truth_sphere(world), rig.geometry);
+    FAIL() << "expected a CalibrationError";
+  } catch (const CalibrationError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("highlights found at only 0 of 2"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("dark-30 (30 deg): no highlight"));
+  }
+}
