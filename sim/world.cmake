@@ -11,4 +11,4 @@ paintlab_add_library(sim
     ${CMAKE_CURRENT_LIST_DIR}/src/virtual_clock.cpp
     ${CMAKE_CURRENT_LIST_DIR}/src/world.cpp
   DEPS paintlab_core paintlab_brdf
-  PRIVATE_DEPS TBB::tbb)
+  PRIVATE_DEPS TBB::tbb opencv_core opencv_aruco)

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <string>
 
+#include <opencv2/aruco.hpp>
+
 #include "paintlab/core/error.h"
 #include "parallel.h"
 #include "rng.h"
@@ -53,38 +55,37 @@ inline bool board_point(const Mat3& hinv, const Vec2& xn, Vec2* out) {
   return true;
 }
 
-// Region id of a board point: which square (or margin/outside part) it lies in. Pixels
-// whose four corners share an id are uniform.
-inline std::int64_t region(const Chessboard& b, bool front, const Vec2& p) {
-  if (!front) return -1;
-  double a = b.albedo(p.x(), p.y());
-  if (a < 0) return -2;
-  auto iu = static_cast<std::int64_t>(std::floor(p.x() / b.square_m));
-  auto iv = static_cast<std::int64_t>(std::floor(p.y() / b.square_m));
-  return ((iv + 1024) * 4096 + (iu + 1024)) * 2 + (a == b.white_albedo ? 1 : 0);
-}
-
 }  // namespace
 
-ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, const Rigid3& cam_from_board,
-                         const PlaneLighting& lighting, int samples, int channels, int threads) {
-  board.check();
-  if (samples < 1 || samples > 64) throw DataError("chessboard: samples must be in [1, 64]");
-  if (channels != 1 && channels != 3) throw DataError("chessboard: channels must be 1 or 3");
+namespace {
+
+// Renders a printed plane: albedo(p) (< 0 outside the print) and region(p), an id that is
+// constant over convex patches of constant albedo, so pixels whose four corners share an
+// id are uniform and only the others are supersampled.
+template <class Albedo, class Region>
+ImageF render_planar(const CameraModel& camera, const Rigid3& cam_from_board, const PlaneLighting& lighting,
+                     int samples, int channels, int threads, const Albedo& albedo, const Region& region) {
+  if (samples < 1 || samples > 64) throw DataError("planar target: samples must be in [1, 64]");
+  if (channels != 1 && channels != 3) throw DataError("planar target: channels must be 1 or 3");
   Mat3 R = cam_from_board.matrix();
   Mat3 h;
   h.col(0) = R.col(0);
   h.col(1) = R.col(1);
   h.col(2) = cam_from_board.translation;
-  if (std::abs(h.determinant()) < 1e-15) throw DataError("chessboard: the board is seen edge-on");
+  if (std::abs(h.determinant()) < 1e-15) throw DataError("planar target: the board is seen edge-on");
   Mat3 hinv = h.inverse();
   // The print faces the camera when the board's +z points away from it.
   bool print_faces_camera = R.col(2).dot(cam_from_board.translation) > 0;
   const double scale = lighting.irradiance_w_m2 / kPi;
   auto radiance = [&](bool front, const Vec2& p) {
     if (!front) return lighting.background_radiance;
-    double a = board.albedo(p.x(), p.y());
+    double a = albedo(p);
     return a < 0 ? lighting.background_radiance : a * scale;
+  };
+  auto region_of = [&](bool front, const Vec2& p) -> std::int64_t {
+    if (!front) return -1;
+    if (albedo(p) < 0) return -2;
+    return region(p);
   };
 
   const int w = camera.width(), hgt = camera.height();
@@ -98,7 +99,7 @@ ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, con
       for (int k = 0; k < 4; ++k) {
         const Vec2& xn = grid[(static_cast<std::size_t>(y) + (k >> 1)) * gw + x + (k & 1)];
         bool front = print_faces_camera && board_point(hinv, xn, &p);
-        ids[k] = region(board, front, p);
+        ids[k] = region_of(front, p);
       }
       double v;
       if (ids[0] == ids[1] && ids[0] == ids[2] && ids[0] == ids[3]) {
@@ -120,6 +121,109 @@ ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, con
   });
   camera.blur(out, threads);
   return out;
+}
+
+}  // namespace
+
+ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, const Rigid3& cam_from_board,
+                         const PlaneLighting& lighting, int samples, int channels, int threads) {
+  board.check();
+  return render_planar(
+      camera, cam_from_board, lighting, samples, channels, threads,
+      [&](const Vec2& p) { return board.albedo(p.x(), p.y()); },
+      [&](const Vec2& p) {
+        // Which square (the margin continues the grid of squares).
+        auto iu = static_cast<std::int64_t>(std::floor(p.x() / board.square_m));
+        auto iv = static_cast<std::int64_t>(std::floor(p.y() / board.square_m));
+        bool margin = p.x() < -board.square_m || p.y() < -board.square_m || p.x() >= board.cols * board.square_m ||
+                      p.y() >= board.rows * board.square_m;
+        return ((iv + 1024) * 4096 + (iu + 1024)) * 2 + (margin ? 1 : 0);
+      });
+}
+
+std::vector<Vec3> CharucoBoard::corners() const {
+  std::vector<Vec3> out;
+  for (int y = 1; y < squares_y; ++y)
+    for (int x = 1; x < squares_x; ++x) out.emplace_back(x * square_m, y * square_m, 0.0);
+  return out;
+}
+
+int CharucoBoard::marker_count() const { return squares_x * squares_y / 2; }
+
+void CharucoBoard::check() const {
+  if (squares_x < 2 || squares_y < 2) throw DataError("charuco: needs at least 2 x 2 squares");
+  if (!(square_m > 0) || !(marker_m > 0) || !(marker_m < square_m))
+    throw DataError("charuco: needs 0 < marker_m < square_m");
+  if (!(margin_squares >= 0)) throw DataError("charuco: margin_squares must be >= 0");
+  if (!(white_albedo >= 0 && black_albedo >= 0 && white_albedo <= 1 && black_albedo <= 1))
+    throw DataError("charuco: albedos must be in [0, 1]");
+}
+
+ImageF render_charuco(const CameraModel& camera, const CharucoBoard& board, const Rigid3& cam_from_board,
+                      const PlaneLighting& lighting, int samples, int channels, int threads) {
+  board.check();
+  cv::Ptr<cv::aruco::Dictionary> dict;
+  try {
+    dict = cv::aruco::getPredefinedDictionary(board.dictionary);
+  } catch (const cv::Exception&) {
+    throw DataError("charuco: unknown predefined dictionary " + std::to_string(board.dictionary));
+  }
+  // Marker ids of the squares (-1: black square) and each marker's bits with its border,
+  // one byte per bit (OpenCV draws it at one pixel per bit: 255 white).
+  const int cells = dict->markerSize + 2;
+  std::vector<int> id_of(static_cast<std::size_t>(board.squares_x * board.squares_y), -1);
+  std::vector<cv::Mat> bits;
+  for (int y = 0; y < board.squares_y; ++y)
+    for (int x = 0; x < board.squares_x; ++x) {
+      if ((x + y) % 2 == 0) continue;
+      int id = static_cast<int>(bits.size());
+      if (id >= dict->bytesList.rows)
+        throw DataError("charuco: the board needs more markers than the dictionary has (" +
+                        std::to_string(dict->bytesList.rows) + ")");
+      cv::Mat img;
+      dict->drawMarker(id, cells, img, 1);
+      bits.push_back(img);
+      id_of[static_cast<std::size_t>(y * board.squares_x + x)] = id;
+    }
+  const double sq = board.square_m, inset = 0.5 * (board.square_m - board.marker_m);
+  const double cell = board.marker_m / cells;
+  const double lo = -board.margin_squares * sq;
+  const double hi_x = (board.squares_x + board.margin_squares) * sq, hi_y = (board.squares_y + board.margin_squares) * sq;
+  // Square (ix, iy) and, inside a marker, the bit (r, c); r = c = -1 elsewhere.
+  struct Where {
+    long ix, iy, r, c;
+    bool inside;
+  };
+  auto where = [&](const Vec2& p) {
+    Where w{static_cast<long>(std::floor(p.x() / sq)), static_cast<long>(std::floor(p.y() / sq)), -1, -1, false};
+    w.inside = w.ix >= 0 && w.iy >= 0 && w.ix < board.squares_x && w.iy < board.squares_y;
+    if (w.inside && id_of[static_cast<std::size_t>(w.iy * board.squares_x + w.ix)] >= 0) {
+      double u = (p.x() - w.ix * sq - inset) / cell, v = (p.y() - w.iy * sq - inset) / cell;
+      if (u >= 0 && v >= 0 && u < cells && v < cells) {
+        w.c = static_cast<long>(u);
+        w.r = static_cast<long>(v);
+      }
+    }
+    return w;
+  };
+  return render_planar(
+      camera, cam_from_board, lighting, samples, channels, threads,
+      [&](const Vec2& p) {
+        if (p.x() < lo || p.y() < lo || p.x() > hi_x || p.y() > hi_y) return -1.0;
+        Where w = where(p);
+        if (!w.inside) return board.white_albedo;  // the margin
+        int id = id_of[static_cast<std::size_t>(w.iy * board.squares_x + w.ix)];
+        if (id < 0) return board.black_albedo;
+        if (w.r < 0) return board.white_albedo;
+        return bits[static_cast<std::size_t>(id)].at<std::uint8_t>(static_cast<int>(w.r), static_cast<int>(w.c)) > 127
+                   ? board.white_albedo
+                   : board.black_albedo;
+      },
+      [&](const Vec2& p) {
+        Where w = where(p);
+        std::int64_t square = (w.iy + 1024) * 4096 + (w.ix + 1024);
+        return (square * 64 + (w.r + 1)) * 64 + (w.c + 1) + (w.inside ? 0 : (std::int64_t{1} << 50));
+      });
 }
 
 std::vector<Vec2> project_points(const CameraModel& camera, const Rigid3& cam_from_board,

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -181,4 +182,60 @@ TEST(Scenes, DarkAndUniformFields) {
     }
   EXPECT_NEAR(corner / centre, ratio_model, 0.02);
   EXPECT_LT(ratio_model, 0.8);
+}
+
+// A ChArUco board laid out as OpenCV's CharucoBoard: OpenCV's detector finds every marker
+// with the right id, and its ChArUco corners sit where our projection puts them.
+TEST(Charuco, OpenCvDetectsTheRenderedBoard) {
+  sim::CameraTruth t = sim::test::small_config(8.0, 640, 480).camera;
+  t.fx_px = 610.0;
+  t.fy_px = 607.0;
+  t.cx_px = 322.4;
+  t.cy_px = 236.1;
+  t.dist = {-0.12, 0.05, 0.0005, -0.0004, 0.0};
+  t.psf_sigma_px = 0.7;
+  sim::CameraModel cam(t);
+  sim::CharucoBoard b;  // 5 x 7 squares of 40 mm, 20 mm DICT_6X6_250 markers: the OpenCV tutorial's board
+  Rigid3 pose;
+  pose.rotation = Eigen::AngleAxisd(deg_to_rad(12.0), Vec3::UnitX()) * Eigen::AngleAxisd(deg_to_rad(-15.0), Vec3::UnitY());
+  pose.translation = Vec3(0, 0, 0.5) - pose.rotation * Vec3(0.1, 0.14, 0.0);
+  ImageF rad = sim::render_charuco(cam, b, pose, {10.0, 0.02});
+  double peak = b.white_albedo * 10.0 / kPi;
+  cv::Mat f(rad.height(), rad.width(), CV_32F, rad.data());
+  cv::Mat img8;
+  f.convertTo(img8, CV_8U, 250.0 / peak);
+
+  auto dict = cv::aruco::getPredefinedDictionary(b.dictionary);
+  std::vector<std::vector<cv::Point2f>> marker_corners;
+  std::vector<int> ids;
+  cv::aruco::detectMarkers(img8, dict, marker_corners, ids);
+  ASSERT_EQ(ids.size(), static_cast<std::size_t>(b.marker_count()));
+  std::sort(ids.begin(), ids.end());
+  for (int i = 0; i < b.marker_count(); ++i) EXPECT_EQ(ids[static_cast<std::size_t>(i)], i);
+  cv::aruco::detectMarkers(img8, dict, marker_corners, ids);  // unsorted again, paired with corners
+
+  auto cv_board = cv::aruco::CharucoBoard::create(b.squares_x, b.squares_y, static_cast<float>(b.square_m),
+                                                  static_cast<float>(b.marker_m), dict);
+  std::vector<cv::Point2f> ch_corners;
+  std::vector<int> ch_ids;
+  int n = cv::aruco::interpolateCornersCharuco(marker_corners, ids, img8, cv_board, ch_corners, ch_ids);
+  ASSERT_EQ(n, (b.squares_x - 1) * (b.squares_y - 1));
+  // OpenCV 4.6's interpolateCornersCharuco returns corners shifted by about +0.5 px in x and
+  // y (its cornerSubPix call is wrapped in a -0.5/+0.5 shift: opencv/opencv#25539, fixed
+  // upstream in 2026), so refine its corners again with cornerSubPix, as the chessboard test does.
+  cv::Mat f32 = f * (1.0 / peak);
+  cv::cornerSubPix(f32, ch_corners, cv::Size(5, 5), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
+  auto truth = sim::project_points(cam, pose, b.corners());
+  double sum = 0, worst = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vec2 c(ch_corners[static_cast<std::size_t>(i)].x, ch_corners[static_cast<std::size_t>(i)].y);
+    Vec2 dv = c - truth[static_cast<std::size_t>(ch_ids[static_cast<std::size_t>(i)])];
+    double e = dv.norm();
+    sum += e;
+    worst = std::max(worst, e);
+  }
+  std::printf("rendered ChArUco corners vs projection: %d corners, mean %.4f px, worst %.4f px\n", n, sum / n, worst);
+  EXPECT_LT(sum / n, 0.08);
+  EXPECT_LT(worst, 0.2);
 }

@@ -34,6 +34,27 @@ struct Chessboard {
   void check() const;  // DataError naming the bad field
 };
 
+// A ChArUco board as OpenCV's aruco::CharucoBoard::create(squares_x, squares_y, square_m,
+// marker_m, dictionary) lays it out: board frame origin at the outer corner of square
+// (0, 0), x along a row, y down the columns; squares with (x + y) even are black, the
+// others carry markers 0, 1, ... in row-major order, centred, each with a one-bit black
+// border; ChArUco corner k is inner corner (k % (squares_x - 1) + 1, k / (squares_x - 1) + 1)
+// times square_m.
+struct CharucoBoard {
+  int squares_x = 5;
+  int squares_y = 7;
+  double square_m = 0.04;
+  double marker_m = 0.02;
+  int dictionary = 10;         // cv::aruco predefined dictionary (10 = DICT_6X6_250)
+  double margin_squares = 0.5; // white border around the squares, in squares
+  double white_albedo = 0.8;
+  double black_albedo = 0.04;
+
+  std::vector<Vec3> corners() const;  // ChArUco corners by id, board frame
+  int marker_count() const;
+  void check() const;
+};
+
 // How a planar target is lit: uniformly (radiance = albedo * irradiance / pi) in front of
 // a background of constant radiance.
 struct PlaneLighting {
@@ -46,6 +67,11 @@ struct PlaneLighting {
 // placed with sub-pixel accuracy. channels: 1 or 3 (grey).
 ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, const Rigid3& cam_from_board,
                          const PlaneLighting& lighting = {}, int samples = 16, int channels = 1, int threads = 0);
+
+// Radiance of a ChArUco board at cam_from_board (as render_chessboard: supersampled edges,
+// the same camera). Marker bits come from OpenCV's dictionary.
+ImageF render_charuco(const CameraModel& camera, const CharucoBoard& board, const Rigid3& cam_from_board,
+                      const PlaneLighting& lighting = {}, int samples = 16, int channels = 1, int threads = 0);
 
 // Pixel positions of board-frame points (cv::projectPoints with the camera's K and dist).
 std::vector<Vec2> project_points(const CameraModel& camera, const Rigid3& cam_from_board,
