@@ -28,16 +28,6 @@ sim::SimPaint glossy_black() {
   return p;
 }
 
-// The light step in isolation: the true sphere, and the camera blur the sphere step
-// measures on this rig (psf_sigma_px = 0.5).
-SphereFit truth_sphere(const sim::SimWorld& w) {
-  SphereFit s;
-  s.radius_m = w.sphere_radius_m();
-  s.centre_cam_m = w.sphere_centre_cam();
-  s.edge_sigma_px = w.config().camera.psf_sigma_px;
-  return s;
-}
-
 }  // namespace
 
 TEST(LightSim, LedCircleFromHighlightsMatchesTheTruth) {
@@ -78,6 +68,9 @@ TEST(LightSim, LedCircleFromHighlightsMatchesTheTruth) {
   LightCalibration back = LightCalibration::load(dir / "light.json");
   EXPECT_LT((back.model.led_position_cam(37.0) - cal.model.led_position_cam(37.0)).norm(), 1e-9);
   EXPECT_EQ(back.highlights.size(), cal.highlights.size());
+  // The test's own truth conversion agrees with the simulator.
+  const LightModel truth = truth_light(world);
+  EXPECT_LT((truth.led_position_cam(37.0) - world.led_position_cam(37.0)).norm(), 1e-4);
 }
 
 TEST(LightSim, LedOffGivesNoHighlightAndTheFitNamesTheImages) {

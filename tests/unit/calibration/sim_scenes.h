@@ -6,6 +6,8 @@
 #include <string>
 
 #include "paintlab/calibration/camera_model.h"
+#include "paintlab/calibration/light.h"
+#include "paintlab/calibration/sphere.h"
 #include "paintlab/core/config.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/sim/config.h"
@@ -63,6 +65,31 @@ inline ImageF expose_linear(sim::SimWorld& w, const ImageF& radiance, double fil
   }
   if (raw_out) *raw_out = std::move(raw);
   return out;
+}
+
+// The simulator's true LED circle in calibration's convention: origin on the table axis at
+// the sphere centre's height, x horizontal towards the camera.
+inline LightModel truth_light(const sim::SimWorld& w) {
+  const Rigid3& cfr = w.cam_from_rig();
+  const Vec3 c_rig = w.sphere_centre_rig();
+  LightModel m;
+  m.axis_cam = cfr.rotation * Vec3::UnitZ();
+  m.origin_cam = cfr * Vec3(0.0, 0.0, c_rig.z());
+  m.arm_radius_m = w.config().led.arm_radius_m;
+  m.arm_height_m = w.config().led.arm_height_m - c_rig.z();
+  const Vec3 cam = w.camera().centre_rig();
+  m.zero_deg = w.config().led.zero_deg - rad_to_deg(std::atan2(cam.y(), cam.x()));
+  m.profile_exponent = w.config().led.profile_exponent;
+  return m;
+}
+
+// The true sphere as a SphereFit, with the camera blur the sphere step measures here.
+inline SphereFit truth_sphere(const sim::SimWorld& w) {
+  SphereFit s;
+  s.radius_m = w.sphere_radius_m();
+  s.centre_cam_m = w.sphere_centre_cam();
+  s.edge_sigma_px = w.config().camera.psf_sigma_px;
+  return s;
 }
 
 }  // namespace paintlab::calib::testing
