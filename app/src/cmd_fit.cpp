@@ -1,4 +1,4 @@
-// paintlab fit INPUT --model cook-torrance [--lobes N] --out fit.json
+// paintlab fit INPUT --model cook-torrance|axf-carpaint [--lobes N] --out fit.json
 // INPUT: a MERL .binary table (public measured tables, or one `paintlab bin` wrote).
 #include <filesystem>
 #include <fmt/format.h>
@@ -35,6 +35,11 @@ int run_fit(const FitArgs& a) {
   req.cook_torrance.threads = a.threads;
   req.cook_torrance.max_iterations = a.max_iterations;
   req.cook_torrance.check();
+  req.axf_carpaint.lobes = a.lobes;
+  req.axf_carpaint.seed = a.seed;
+  req.axf_carpaint.threads = a.threads;
+  req.axf_carpaint.max_iterations = a.max_iterations;
+  req.axf_carpaint.check();
   const fs::path input(a.input);
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
   if (fs::is_directory(input))
@@ -63,8 +68,8 @@ void register_fit_commands(CLI::App& app) {
       "Fit a paint model to a measured BRDF table and write fit.json (parameters, standard deviations, residuals "
       "per region, solver summary). Exit 1 when the fit does not converge; nothing is written then.");
   fit->add_option("INPUT", args->input, "MERL .binary table")->required();
-  fit->add_option("--model", args->model, "Model to fit: cook-torrance")->capture_default_str();
-  fit->add_option("--lobes", args->lobes, "Cook-Torrance lobes, 1..3")->capture_default_str();
+  fit->add_option("--model", args->model, "Model to fit: cook-torrance or axf-carpaint")->capture_default_str();
+  fit->add_option("--lobes", args->lobes, "Lobes (Cook-Torrance, or the car paint's achromatic lobes), 1..3")->capture_default_str();
   fit->add_option("--out", args->out, "fit.json to write")->required();
   fit->add_option("--name", args->name, "Paint name in fit.json (default: from the input)");
   fit->add_option("--seed", args->seed, "Seed of the random starts (the fit is deterministic for a seed)")

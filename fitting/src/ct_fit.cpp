@@ -15,6 +15,7 @@
 #include <random>
 #include <thread>
 
+#include "fit_solver.h"
 #include "fit_util.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/log.h"
@@ -22,6 +23,12 @@
 namespace paintlab::fit {
 
 namespace {
+
+using detail::for_each_combination;
+using detail::nnls_small;
+using detail::roughness_grid;
+using detail::subsample;
+using detail::thread_count;
 
 constexpr double kInvPi = 1.0 / std::numbers::pi;
 constexpr int kMaxLobes = 3;
@@ -122,25 +129,6 @@ class CtChunkCost final : public ceres::CostFunction {
   int n_;
 };
 
-// Subsample for the starts: a deterministic hash of the bin index, peak bins four times
-// as likely (they alone constrain the narrow lobe).
-std::vector<const FitBin*> subsample(const FitData& data, std::size_t target) {
-  std::vector<const FitBin*> all;
-  all.reserve(data.bins.size());
-  for (const FitBin& b : data.bins) all.push_back(&b);
-  if (all.size() <= target) return all;
-  std::size_t peak = 0;
-  for (const FitBin& b : data.bins) peak += b.region == Region::Peak;
-  const double p_other = static_cast<double>(target) / (static_cast<double>(all.size() - peak) + 4.0 * peak);
-  const double p_peak = std::min(1.0, 4.0 * p_other);
-  std::vector<const FitBin*> out;
-  for (const FitBin* b : all) {
-    const double u = static_cast<double>(splitmix64(b->bin) >> 11) * 0x1.0p-53;
-    if (u < (b->region == Region::Peak ? p_peak : p_other)) out.push_back(b);
-  }
-  return out;
-}
-
 struct Solved {
   CtParams params;
   ceres::Solver::Summary summary;
@@ -173,14 +161,10 @@ void build_problem(ProblemHolder& h, const std::vector<const FitBin*>& bins, CtP
     for (int k = 0; k <= n; ++k) problem.SetParameterLowerBound(p.lin[c].data(), k, 0.0);
   for (int l = 0; l < n; ++l) {
     problem.SetParameterLowerBound(p.nl.data(), 2 * l, o.m_min);
-    problem.SetParameterUpperBound(p.nl.data(), 2 * l, 1.0);
-    problem.SetParameterLowerBound(p.nl.data(), 2 * l + 1, 0.0);
-    problem.SetParameterUpperBound(p.nl.data(), 2 * l + 1, 1.0);
+    problem.SetParameterUpperBound(p.nl.data(), 2 * l, detail::kUnitHi);
+    problem.SetParameterLowerBound(p.nl.data(), 2 * l + 1, detail::kUnitLo);
+    problem.SetParameterUpperBound(p.nl.data(), 2 * l + 1, detail::kUnitHi);
   }
-}
-
-int thread_count(int requested) {
-  return requested > 0 ? requested : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
 Solved solve(const std::vector<const FitBin*>& bins, CtParams start, const CtFitOptions& o, int max_iterations) {
@@ -203,175 +187,6 @@ Solved solve(const std::vector<const FitBin*>& bins, CtParams start, const CtFit
   return out;
 }
 
-// r = R (x - x0) over the concatenated parameter blocks: a residual block with a fixed
-// Jacobian R. Used to hand ceres::Covariance the Gram matrix of a big problem in compact
-// form: for a chunk with (loss-corrected) Jacobian J = QR, R'R = J'J.
-class LinearizedCost final : public ceres::CostFunction {
- public:
-  LinearizedCost(Eigen::MatrixXd r, std::vector<int> sizes, Eigen::VectorXd x0)
-      : r_(std::move(r)), x0_(std::move(x0)), sizes_(std::move(sizes)) {
-    set_num_residuals(static_cast<int>(r_.rows()));
-    for (int s : sizes_) mutable_parameter_block_sizes()->push_back(s);
-  }
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    Eigen::VectorXd dx(x0_.size());
-    int off = 0;
-    for (std::size_t b = 0; b < sizes_.size(); ++b) {
-      for (int k = 0; k < sizes_[b]; ++k) dx[off + k] = parameters[b][k] - x0_[off + k];
-      off += sizes_[b];
-    }
-    Eigen::Map<Eigen::VectorXd>(residuals, r_.rows()) = r_ * dx;
-    if (!jacobians) return true;
-    off = 0;
-    for (std::size_t b = 0; b < sizes_.size(); ++b) {
-      if (jacobians[b])
-        for (Eigen::Index i = 0; i < r_.rows(); ++i)
-          for (int k = 0; k < sizes_[b]; ++k) jacobians[b][i * sizes_[b] + k] = r_(i, off + k);
-      off += sizes_[b];
-    }
-    return true;
-  }
-
- private:
-  Eigen::MatrixXd r_;
-  Eigen::VectorXd x0_;
-  std::vector<int> sizes_;
-};
-
-// Standard deviations of the parameters at `at` (the solution) from ceres::Covariance.
-// Parameters at a bound are held fixed (SubsetManifold) and get 0; a lobe without weight
-// leaves its m and r undetermined (NaN). The covariance is computed on the compact
-// linearisation above (one R factor per chunk of the loss-corrected Jacobian), which has
-// exactly the Gram matrix of the full problem, so it costs a fraction of the solve.
-bool covariance_stddev(const std::vector<const FitBin*>& bins, const CtParams& solution, const CtFitOptions& o,
-                       double scale, CtParams& sd, std::string& message) {
-  const int N = solution.lobes;
-  const int P = 3 * (N + 1) + 2 * N;
-  CtParams at = solution;
-  ProblemHolder full;
-  build_problem(full, bins, at, o);
-  ceres::Problem compact;
-  CtParams lin = at;  // the compact problem's own parameter storage
-  std::vector<int> sizes{N + 1, N + 1, N + 1, 2 * N};
-  Eigen::VectorXd x0(P);
-  for (int c = 0; c < 3; ++c)
-    for (int k = 0; k <= N; ++k) x0[c * (N + 1) + k] = at.lin[c][k];
-  for (int k = 0; k < 2 * N; ++k) x0[3 * (N + 1) + k] = at.nl[k];
-  std::vector<double> jac_storage;
-  for (ceres::ResidualBlockId id : full.ids) {
-    const int rows = full.problem.GetCostFunctionForResidualBlock(id)->num_residuals();
-    jac_storage.assign(static_cast<std::size_t>(rows) * P, 0.0);
-    std::vector<double> residuals(static_cast<std::size_t>(rows));
-    std::array<double*, 4> jac;
-    std::size_t off = 0;
-    for (int b = 0; b < 4; ++b) {
-      jac[b] = jac_storage.data() + off;
-      off += static_cast<std::size_t>(rows) * sizes[b];
-    }
-    double cost = 0;
-    if (!full.problem.EvaluateResidualBlock(id, true, &cost, residuals.data(), jac.data())) {
-      message = "the Jacobian could not be evaluated at the solution";
-      return false;
-    }
-    Eigen::MatrixXd j(rows, P);
-    int col = 0;
-    for (int b = 0; b < 4; ++b) {
-      j.middleCols(col, sizes[b]) =
-          Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jac[b], rows, sizes[b]);
-      col += sizes[b];
-    }
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(j);
-    const Eigen::Index kept = std::min<Eigen::Index>(rows, P);
-    Eigen::MatrixXd r = qr.matrixQR().topRows(kept).triangularView<Eigen::Upper>();
-    compact.AddResidualBlock(new LinearizedCost(std::move(r), sizes, x0), nullptr,
-                             std::vector<double*>{lin.lin[0].data(), lin.lin[1].data(), lin.lin[2].data(), lin.nl.data()});
-  }
-  std::array<std::vector<int>, 3> fixed_lin;
-  std::vector<int> fixed_nl;
-  std::vector<bool> dead(N);
-  for (int c = 0; c < 3; ++c)
-    for (int k = 0; k <= N; ++k)
-      if (at.lin[c][k] <= 1e-12) fixed_lin[c].push_back(k);
-  for (int l = 0; l < N; ++l) {
-    dead[l] = at.lin[0][1 + l] <= 1e-12 && at.lin[1][1 + l] <= 1e-12 && at.lin[2][1 + l] <= 1e-12;
-    const double m = at.nl[2 * l], r = at.nl[2 * l + 1];
-    if (dead[l] || m <= o.m_min * (1 + 1e-9) || m >= 1.0 - 1e-9) fixed_nl.push_back(2 * l);
-    if (dead[l] || r <= 1e-9 || r >= 1.0 - 1e-9) fixed_nl.push_back(2 * l + 1);
-  }
-  auto hold = [&](double* block, int size, const std::vector<int>& fixed) {
-    if (static_cast<int>(fixed.size()) == size)
-      compact.SetParameterBlockConstant(block);
-    else if (!fixed.empty())
-      compact.SetManifold(block, new ceres::SubsetManifold(size, fixed));
-    return static_cast<int>(fixed.size()) < size;
-  };
-  std::vector<std::pair<const double*, const double*>> blocks;
-  std::array<bool, 3> lin_free;
-  for (int c = 0; c < 3; ++c) {
-    lin_free[c] = hold(lin.lin[c].data(), N + 1, fixed_lin[c]);
-    if (lin_free[c]) blocks.emplace_back(lin.lin[c].data(), lin.lin[c].data());
-  }
-  const bool nl_free = hold(lin.nl.data(), 2 * N, fixed_nl);
-  if (nl_free) blocks.emplace_back(lin.nl.data(), lin.nl.data());
-  ceres::Covariance::Options co;
-  co.num_threads = 1;
-  co.algorithm_type = ceres::DENSE_SVD;
-  ceres::Covariance cov(co);
-  if (!cov.Compute(blocks, &compact)) {
-    message = "ceres::Covariance::Compute failed: the Jacobian is rank deficient at the solution";
-    return false;
-  }
-  for (int c = 0; c < 3; ++c) {
-    std::vector<double> m(static_cast<std::size_t>((N + 1) * (N + 1)), 0.0);
-    if (lin_free[c]) cov.GetCovarianceBlock(lin.lin[c].data(), lin.lin[c].data(), m.data());
-    for (int k = 0; k <= N; ++k) sd.lin[c][k] = std::sqrt(std::max(0.0, m[k * (N + 1) + k])) * scale;
-  }
-  std::vector<double> m(static_cast<std::size_t>(4 * N * N), 0.0);
-  if (nl_free) cov.GetCovarianceBlock(lin.nl.data(), lin.nl.data(), m.data());
-  for (int k = 0; k < 2 * N; ++k) sd.nl[k] = std::sqrt(std::max(0.0, m[k * 2 * N + k])) * scale;
-  for (int l = 0; l < N; ++l)
-    if (dead[l]) sd.nl[2 * l] = sd.nl[2 * l + 1] = std::numeric_limits<double>::quiet_NaN();
-  message = fmt::format("ceres::Covariance (DENSE_SVD) on the Jacobian's per-chunk R factors; parameters at a "
-                        "bound held fixed; scaled by sqrt(max(1, chi2/dof)) = {:.3g}",
-                        scale);
-  return true;
-}
-
-// Non-negative least squares min x'Ax - 2b'x over x >= 0 for up to 4 unknowns, by
-// enumerating the active sets (the problem is convex: the best feasible stationary point
-// of a face is the optimum). Returns the cost without the constant term.
-double nnls_small(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
-  const int n = static_cast<int>(b.size());
-  double best = std::numeric_limits<double>::infinity();
-  x = Eigen::VectorXd::Zero(n);
-  for (int mask = 0; mask < (1 << n); ++mask) {
-    std::vector<int> idx;
-    for (int k = 0; k < n; ++k)
-      if (mask & (1 << k)) idx.push_back(k);
-    Eigen::VectorXd sol = Eigen::VectorXd::Zero(n);
-    if (!idx.empty()) {
-      const int m = static_cast<int>(idx.size());
-      Eigen::MatrixXd As(m, m);
-      Eigen::VectorXd bs(m);
-      for (int a = 0; a < m; ++a) {
-        bs[a] = b[idx[a]];
-        for (int c = 0; c < m; ++c) As(a, c) = A(idx[a], idx[c]);
-      }
-      const Eigen::LDLT<Eigen::MatrixXd> ldlt(As);
-      if (ldlt.info() != Eigen::Success) continue;
-      const Eigen::VectorXd xs = ldlt.solve(bs);
-      if (!xs.allFinite() || (xs.array() < 0.0).any()) continue;
-      for (int a = 0; a < m; ++a) sol[idx[a]] = xs[a];
-    }
-    const double cost = sol.dot(A * sol) - 2.0 * b.dot(sol);
-    if (cost < best) {
-      best = cost;
-      x = sol;
-    }
-  }
-  return best;
-}
-
 struct GridStart {
   CtParams params;
   double cost = 0;
@@ -381,9 +196,7 @@ struct GridStart {
 // Grid starts: every combination of N distinct roughnesses from a log-spaced list, r = 0.5,
 // with kd and ks from NNLS on relative residuals (the linear part of the model).
 std::vector<GridStart> grid_starts(const std::vector<const FitBin*>& bins, const CtFitOptions& o) {
-  std::vector<double> grid;
-  for (double m : {0.6, 0.4, 0.25, 0.15, 0.09, 0.05, 0.03, 0.018, 0.01, 0.006, 0.0035, 0.002})
-    if (m >= o.m_min) grid.push_back(m);
+  const std::vector<double> grid = roughness_grid(o.m_min);
   const int G = static_cast<int>(grid.size());
   const int N = o.lobes;
   // Basis values: column 0 the diffuse 1/pi, column 1 + g the lobe of roughness grid[g].
@@ -409,42 +222,32 @@ std::vector<GridStart> grid_starts(const std::vector<const FitBin*>& bins, const
   for (int c = 0; c < 3; ++c) gram[c] = gram[c].selfadjointView<Eigen::Lower>();
 
   std::vector<GridStart> out;
-  std::vector<int> pick(N);
-  // Enumerate strictly increasing index tuples (grid is in decreasing m: broadest first).
-  std::function<void(int, int)> rec = [&](int depth, int from) {
-    if (depth == N) {
-      GridStart s;
-      s.params.lobes = N;
-      std::vector<int> cols{0};
-      for (int l = 0; l < N; ++l) cols.push_back(1 + pick[l]);
-      double cost = 0;
-      for (int c = 0; c < 3; ++c) {
-        Eigen::MatrixXd A(N + 1, N + 1);
-        Eigen::VectorXd bb(N + 1), x;
-        for (int a = 0; a <= N; ++a) {
-          bb[a] = rhs[c][cols[a]];
-          for (int e = 0; e <= N; ++e) A(a, e) = gram[c](cols[a], cols[e]);
-        }
-        cost += nnls_small(A, bb, x);
-        for (int a = 0; a <= N; ++a) s.params.lin[c][a] = x[a];
+  for_each_combination(G, N, [&](const std::vector<int>& pick) {
+    GridStart s;
+    s.params.lobes = N;
+    std::vector<int> cols{0};
+    for (int l = 0; l < N; ++l) cols.push_back(1 + pick[l]);
+    double cost = 0;
+    for (int c = 0; c < 3; ++c) {
+      Eigen::MatrixXd A(N + 1, N + 1);
+      Eigen::VectorXd bb(N + 1), x;
+      for (int a = 0; a <= N; ++a) {
+        bb[a] = rhs[c][cols[a]];
+        for (int e = 0; e <= N; ++e) A(a, e) = gram[c](cols[a], cols[e]);
       }
-      std::string ms;
-      for (int l = 0; l < N; ++l) {
-        s.params.nl[2 * l] = grid[pick[l]];
-        s.params.nl[2 * l + 1] = 0.5;
-        ms += fmt::format("{}{:g}", l ? "," : "", grid[pick[l]]);
-      }
-      s.cost = cost;
-      s.origin = "grid m=" + ms;
-      out.push_back(s);
-      return;
+      cost += nnls_small(A, bb, x);
+      for (int a = 0; a <= N; ++a) s.params.lin[c][a] = x[a];
     }
-    for (int g = from; g < G; ++g) {
-      pick[depth] = g;
-      rec(depth + 1, g + 1);
+    std::string ms;
+    for (int l = 0; l < N; ++l) {
+      s.params.nl[2 * l] = grid[pick[l]];
+      s.params.nl[2 * l + 1] = 0.5;
+      ms += fmt::format("{}{:g}", l ? "," : "", grid[pick[l]]);
     }
-  };
-  rec(0, 0);
+    s.cost = cost;
+    s.origin = "grid m=" + ms;
+    out.push_back(s);
+  });
   std::sort(out.begin(), out.end(), [](const GridStart& a, const GridStart& b) { return a.cost < b.cost; });
   return out;
 }
@@ -572,7 +375,7 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
   for (int s = 0; s < o.random_starts && !starts.empty(); ++s) {
     GridStart r = starts.front();
     for (int l = 0; l < N; ++l) {
-      r.params.nl[2 * l] = std::clamp(r.params.nl[2 * l] * std::exp(0.4 * gauss(rng)), o.m_min, 1.0);
+      r.params.nl[2 * l] = std::clamp(r.params.nl[2 * l] * std::exp(0.4 * gauss(rng)), o.m_min, detail::kUnitHi);
       r.params.nl[2 * l + 1] = uni(rng);
     }
     r.origin = fmt::format("seed {} #{}", o.seed, s + 1);
@@ -624,7 +427,34 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
   sd.nl.fill(std::numeric_limits<double>::quiet_NaN());
   if (o.covariance) {
     const double scale = std::sqrt(std::max(1.0, sum.chi2_per_dof));
-    sum.covariance_ok = covariance_stddev(all, p, o, scale, sd, sum.covariance_message);
+    CtParams at = p;
+    ProblemHolder h;
+    build_problem(h, all, at, o);
+    std::vector<detail::CovarianceBlock> blocks(4);
+    for (int c = 0; c < 3; ++c) {
+      blocks[c].values = at.lin[c].data();
+      blocks[c].size = N + 1;
+      for (int k = 0; k <= N; ++k)
+        if (at.lin[c][k] <= 1e-12) blocks[c].fixed.push_back(k);
+    }
+    blocks[3].values = at.nl.data();
+    blocks[3].size = 2 * N;
+    std::vector<bool> dead(N);
+    for (int l = 0; l < N; ++l) {
+      // A lobe without weight leaves its m and r undetermined.
+      dead[l] = at.lin[0][1 + l] <= 1e-12 && at.lin[1][1 + l] <= 1e-12 && at.lin[2][1 + l] <= 1e-12;
+      const double m = at.nl[2 * l], r = at.nl[2 * l + 1];
+      if (dead[l] || detail::at_bound(m, o.m_min, detail::kUnitHi)) blocks[3].fixed.push_back(2 * l);
+      if (dead[l] || detail::at_bound(r, detail::kUnitLo, detail::kUnitHi)) blocks[3].fixed.push_back(2 * l + 1);
+    }
+    sum.covariance_ok = detail::covariance_stddev(h.problem, h.ids, blocks, scale, sum.covariance_message);
+    if (sum.covariance_ok) {
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k <= N; ++k) sd.lin[c][k] = blocks[c].stddev[k];
+      for (int k = 0; k < 2 * N; ++k) sd.nl[k] = blocks[3].stddev[k];
+      for (int l = 0; l < N; ++l)
+        if (dead[l]) sd.nl[2 * l] = sd.nl[2 * l + 1] = std::numeric_limits<double>::quiet_NaN();
+    }
   } else {
     sum.covariance_message = "not computed";
   }

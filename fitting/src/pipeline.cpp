@@ -1,6 +1,7 @@
 #include "paintlab/fitting/pipeline.h"
 
 #include <cctype>
+#include <cmath>
 #include <fmt/format.h>
 
 #include "paintlab/core/error.h"
@@ -11,13 +12,15 @@ namespace paintlab::fit {
 const char* to_string(FitModel m) {
   switch (m) {
     case FitModel::CookTorrance: return "cook-torrance";
+    case FitModel::AxfCarPaint: return "axf-carpaint";
   }
   return "?";
 }
 
 FitModel fit_model_from_string(std::string_view s, std::string_view where) {
   if (s == "cook-torrance") return FitModel::CookTorrance;
-  throw DataError(fmt::format("{}: unknown model '{}' (expected cook-torrance)", where, s));
+  if (s == "axf-carpaint") return FitModel::AxfCarPaint;
+  throw DataError(fmt::format("{}: unknown model '{}' (expected cook-torrance or axf-carpaint)", where, s));
 }
 
 std::string paint_name_from(std::string_view text) {
@@ -66,6 +69,26 @@ std::string ct_report(const CookTorranceFit& f) {
   return s;
 }
 
+std::string axf_report(const AxfFit& f) {
+  const auto& p = f.params;
+  std::string s = fmt::format("axf-carpaint, {} lobe{}\n", p.lobes.size(), p.lobes.size() == 1 ? "" : "s");
+  s += fmt::format("  clear-coat ior    {:.4f} +- {:.2g}\n  diffuse           {:.5g} +- {:.2g}\n", p.ior, f.stddev.ior,
+                   p.diffuse, f.stddev.diffuse);
+  for (std::size_t k = 0; k < p.lobes.size(); ++k)
+    s += fmt::format("  lobe {}            coefficient {:.5g} +- {:.2g}  spread {:.5g} +- {:.2g}  F0 {:.3g}{}\n", k + 1,
+                     p.lobes[k].coefficient, f.stddev.lobes[k].coefficient, p.lobes[k].spread,
+                     f.stddev.lobes[k].spread, p.lobes[k].f0, std::isfinite(f.stddev.lobes[k].f0) &&
+                     f.stddev.lobes[k].f0 > 0 ? "" : " (held)");
+  s += fmt::format("  colour table      {} x {} (theta_hbar x theta_ibar): {} texels measured, {} filled\n",
+                   p.chi.theta_h_samples, p.chi.theta_i_samples, f.chi.measured_texels, f.chi.filled_texels);
+  s += fmt::format("  achromatic log-RMS {:.4f}\n", f.achromatic.total.log_rms);
+  s += region_lines(f.residual);
+  s += fmt::format("  solver            {} iterations, {} residual blocks, cost {:.6g} -> {:.6g}, {:.2f} s, {} starts\n",
+                   f.summary.iterations, f.summary.residual_blocks, f.summary.initial_cost, f.summary.final_cost,
+                   f.summary.time_s, f.summary.starts.size());
+  return s;
+}
+
 }  // namespace
 
 FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noise_variance, const FitRequest& request,
@@ -80,6 +103,16 @@ FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noi
                                    f.summary.iterations));
       out.fit = f.to_json(request.name);
       out.report = ct_report(f);
+      break;
+    }
+    case FitModel::AxfCarPaint: {
+      const FitData data = prepare_fit_data(table, request.axf_carpaint.data, noise_variance);
+      const AxfFit f = fit_axf_carpaint(data, request.axf_carpaint);
+      if (!f.summary.converged)
+        throw JobError(fmt::format("the axf-carpaint fit did not converge ({}) after {} iterations", f.summary.termination,
+                                   f.summary.iterations));
+      out.fit = f.to_json(request.name);
+      out.report = axf_report(f);
       break;
     }
   }

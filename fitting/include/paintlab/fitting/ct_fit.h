@@ -4,7 +4,7 @@
 //  - residuals: whitened log residuals (log f(mean coords) - y_bc) / sigma_bc of fit_data.h,
 //    one residual block per chunk of bins (3 residuals per bin); a Huber loss on them;
 //  - parameters: per channel (kd_c, ks_1c .. ks_Nc) >= 0, shared (m_l, r_l) with m in
-//    [m_min, 1] and r in [0, 1] (Ceres bounds, no penalty terms);
+//    [m_min, 1 - 1e-6] and r in [1e-6, 1 - 1e-6] (Ceres bounds, no penalty terms; paint files want (0, 1));
 //  - starts: a grid over the lobe roughnesses (m combinations from a fixed log-spaced
 //    list, r = 0.5) with kd and ks from a non-negative linear least-squares fit of the
 //    relative residuals, the best few grid points plus seeded random perturbations of the

@@ -10,12 +10,13 @@
 
 #include "paintlab/brdf/merl.h"
 #include "paintlab/core/json.h"
+#include "paintlab/fitting/axf_fit.h"
 #include "paintlab/fitting/ct_fit.h"
 
 namespace paintlab::fit {
 
-enum class FitModel { CookTorrance };
-const char* to_string(FitModel m);  // "cook-torrance"
+enum class FitModel { CookTorrance, AxfCarPaint };
+const char* to_string(FitModel m);  // "cook-torrance", "axf-carpaint"
 // DataError naming `where` for other names.
 FitModel fit_model_from_string(std::string_view s, std::string_view where);
 
@@ -23,6 +24,7 @@ struct FitRequest {
   FitModel model = FitModel::CookTorrance;
   std::string name = "fitted";  // paint name written into fit.json ([a-z0-9._-]+)
   CtFitOptions cook_torrance;
+  AxfFitOptions axf_carpaint;
 };
 
 struct FitOutcome {
@@ -32,7 +34,7 @@ struct FitOutcome {
 
 // Fits the Measured bins of `table` (filled bins are never used). `noise_variance` is
 // BinnedTable::noise_variance or null. `input` goes into fit.json as "input". Throws
-// JobError ("the cook-torrance fit did not converge: ...") when Ceres did not converge.
+// JobError ("the cook-torrance fit did not converge ...") when Ceres did not converge.
 FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noise_variance, const FitRequest& request,
                      const Json& input);
 
