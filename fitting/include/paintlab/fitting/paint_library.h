@@ -1,0 +1,89 @@
+#pragma once
+// A paint library (docs/library.md): a folder of AxF-like paint files with an index.json
+// that lists them (name, file, checksum, model, date, fit residual). Every change rewrites
+// the index atomically (temp + fsync + rename) after the paint file is complete and
+// before an old file is deleted, so a crash at any point leaves the old or the new index,
+// and every file the index names is whole. Changes take an exclusive lock (flock on
+// DIR/.lock), so two technicians adding at once cannot lose an entry.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "paintlab/core/json.h"
+#include "paintlab/fitting/axf_file.h"
+
+namespace paintlab::fit {
+
+inline constexpr const char* kLibraryIndexFile = "index.json";
+inline constexpr const char* kLibraryFormat = "paintlab-library";
+inline constexpr int kLibraryFormatVersion = 1;
+
+struct LibraryEntry {
+  std::string name;
+  std::string file;        // relative to the library folder ("silver.3.axf.h5")
+  std::string sha256;      // of the file
+  std::string model;       // "cook-torrance" or "axf-carpaint"
+  std::string date;        // when the paint was measured (else exported), ISO 8601 UTC
+  std::string added_utc;
+  std::string sample;      // provenance sample name ("" when unknown)
+  std::optional<double> log_rms;         // fit residual, when the paint is a fit
+  std::optional<std::int64_t> bins_used;
+
+  Json to_json() const;
+  static LibraryEntry from_json(const Json& j, const std::string& where);
+  bool operator==(const LibraryEntry&) const = default;
+};
+
+class PaintLibrary {
+ public:
+  // Opens the library in `dir`. With create, a missing or empty folder becomes an empty
+  // library (index written); otherwise DataError when dir holds no index.json.
+  static PaintLibrary open(const std::filesystem::path& dir, bool create);
+
+  const std::filesystem::path& dir() const { return dir_; }
+  // The entries of the current index, sorted by name.
+  std::vector<LibraryEntry> list() const;
+  // DataError "library DIR: no paint 'NAME' (paints: a, b)".
+  LibraryEntry find(const std::string& name) const;
+  // Reads a paint's file after checking its checksum against the index.
+  AxfPaint load(const std::string& name) const;
+
+  // Adds a paint (its file is written first, then the index). A paint of the same name is
+  // refused (DataError naming it and --replace) unless `replace`; a replaced paint's old
+  // file is deleted after the new index is in place. Returns the new entry.
+  LibraryEntry add(const AxfPaint& paint, bool replace);
+  // Removes a paint: the index first, then its file.
+  void remove(const std::string& name);
+
+  // The whole library as one HDF5 file (/paints/<name>, see axf_file.h).
+  void export_h5(const std::filesystem::path& file) const;
+  // A folder of AxF-like files <name>.axf.h5. Existing files are refused (IoError naming
+  // them, nothing written) unless `overwrite`.
+  std::vector<std::filesystem::path> export_folder(const std::filesystem::path& folder, bool overwrite) const;
+
+  // Findings a technician should know: files named by the index that are missing or
+  // changed, and paint files the index does not name (left by an interrupted add).
+  std::vector<std::string> check() const;
+
+  // Test hook: called with the name of each step of add/remove ("locked", "paint-written",
+  // "index-written", "old-file-removed", "file-removed") so tests can crash between them.
+  void set_step_hook(std::function<void(const std::string&)> hook) { hook_ = std::move(hook); }
+
+ private:
+  explicit PaintLibrary(std::filesystem::path dir) : dir_(std::move(dir)) {}
+  struct Index {
+    std::int64_t next_id = 1;
+    std::vector<LibraryEntry> paints;
+  };
+  Index read_index() const;
+  void write_index(const Index& index) const;
+  void step(const std::string& name) const;
+
+  std::filesystem::path dir_;
+  std::function<void(const std::string&)> hook_;
+};
+
+}  // namespace paintlab::fit

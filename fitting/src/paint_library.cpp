@@ -1,0 +1,316 @@
+#include "paintlab/fitting/paint_library.h"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <set>
+
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/hash.h"
+#include "paintlab/core/version.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::fit {
+
+namespace {
+
+constexpr const char* kLockFile = ".lock";
+constexpr const char* kPaintSuffix = ".axf.h5";
+
+// An exclusive flock on DIR/.lock for the lifetime of the object. The kernel releases it
+// when the process dies, so a crashed writer never leaves the library locked.
+class DirLock {
+ public:
+  explicit DirLock(const fs::path& dir) {
+    const fs::path p = dir / kLockFile;
+    fd_ = ::open(p.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw IoError(p.string(), "cannot open the library lock", errno);
+    while (::flock(fd_, LOCK_EX) != 0) {
+      if (errno == EINTR) continue;
+      const int e = errno;
+      ::close(fd_);
+      throw IoError(p.string(), "cannot lock the library", e);
+    }
+  }
+  ~DirLock() {
+    if (fd_ >= 0) ::close(fd_);  // closing releases the flock
+  }
+  DirLock(const DirLock&) = delete;
+  DirLock& operator=(const DirLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string names_of(const std::vector<LibraryEntry>& entries) {
+  std::string s;
+  for (const auto& e : entries) s += (s.empty() ? "" : ", ") + e.name;
+  return s.empty() ? "none" : s;
+}
+
+}  // namespace
+
+Json LibraryEntry::to_json() const {
+  Json j = {{"name", name}, {"file", file},           {"sha256", sha256}, {"model", model},
+            {"date", date}, {"added_utc", added_utc}, {"sample", sample}};
+  if (log_rms || bins_used) {
+    Json r = Json::object();
+    if (log_rms) r["log_rms"] = *log_rms;
+    if (bins_used) r["bins_used"] = *bins_used;
+    j["residual"] = r;
+  } else {
+    j["residual"] = nullptr;
+  }
+  return j;
+}
+
+LibraryEntry LibraryEntry::from_json(const Json& j, const std::string& where) {
+  if (!j.is_object()) throw DataError(where + ": expected an object");
+  LibraryEntry e;
+  e.name = json_get<std::string>(j, "name", where);
+  e.file = json_get<std::string>(j, "file", where);
+  e.sha256 = json_get<std::string>(j, "sha256", where);
+  e.model = json_get<std::string>(j, "model", where);
+  e.date = json_get_or<std::string>(j, "date", "", where);
+  e.added_utc = json_get_or<std::string>(j, "added_utc", "", where);
+  e.sample = json_get_or<std::string>(j, "sample", "", where);
+  if (j.contains("residual") && !j["residual"].is_null()) {
+    const Json& r = j["residual"];
+    const std::string rw = where + ".residual";
+    if (!r.is_object()) throw DataError(rw + ": expected an object or null");
+    if (r.contains("log_rms")) e.log_rms = json_get<double>(r, "log_rms", rw);
+    if (r.contains("bins_used")) e.bins_used = json_get<std::int64_t>(r, "bins_used", rw);
+  }
+  if (e.file.empty() || e.file.find('/') != std::string::npos || e.file.front() == '.')
+    throw DataError(where + ": key 'file': '" + e.file + "' is not a file name inside the library folder");
+  return e;
+}
+
+PaintLibrary PaintLibrary::open(const fs::path& dir, bool create) {
+  std::error_code ec;
+  const fs::path abs = fs::absolute(dir, ec);
+  PaintLibrary lib(ec ? dir : abs.lexically_normal());
+  const fs::path index = lib.dir_ / kLibraryIndexFile;
+  if (fs::exists(index, ec)) {
+    lib.read_index();  // validates
+    return lib;
+  }
+  if (!create)
+    throw DataError("library " + lib.dir_.string() + ": not a paint library (no " + kLibraryIndexFile +
+                    "); `paintlab library add --dir DIR FILE` creates one");
+  if (fs::exists(lib.dir_, ec)) {
+    if (!fs::is_directory(lib.dir_, ec)) throw DataError("library " + lib.dir_.string() + ": is not a folder");
+    for (const auto& e : fs::directory_iterator(lib.dir_)) {
+      const std::string n = e.path().filename().string();
+      if (!n.empty() && n.front() != '.')
+        throw DataError("library " + lib.dir_.string() + ": the folder is not empty but holds no " +
+                        kLibraryIndexFile + " (not a paint library; choose an empty or new folder)");
+    }
+  } else {
+    fs::create_directories(lib.dir_, ec);
+    if (ec) throw IoError(lib.dir_.string(), "cannot create the library folder: " + ec.message());
+  }
+  DirLock lock(lib.dir_);
+  if (!fs::exists(index, ec)) lib.write_index(Index{});
+  return lib;
+}
+
+PaintLibrary::Index PaintLibrary::read_index() const {
+  const fs::path path = dir_ / kLibraryIndexFile;
+  const std::string where = path.string();
+  const Json j = read_json_file(path);
+  if (!j.is_object()) throw DataError(where + ": expected a JSON object");
+  const auto format = json_get<std::string>(j, "format", where);
+  if (format != kLibraryFormat)
+    throw DataError(where + ": key 'format': '" + format + "' is not '" + kLibraryFormat + "'");
+  const auto version = json_get<int>(j, "format_version", where);
+  if (version > kLibraryFormatVersion || version < 1)
+    throw DataError(where + fmt::format(": key 'format_version': {} is not readable by this software (reads {})",
+                                        version, kLibraryFormatVersion));
+  Index idx;
+  idx.next_id = json_get_or<std::int64_t>(j, "next_id", 1, where);
+  const Json paints = json_get<Json>(j, "paints", where);
+  if (!paints.is_array()) throw DataError(where + ": key 'paints': expected an array");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < paints.size(); ++i) {
+    LibraryEntry e = LibraryEntry::from_json(paints[i], where + fmt::format(": paints[{}]", i));
+    if (!names.insert(e.name).second)
+      throw DataError(where + fmt::format(": paints[{}]: paint '{}' is listed twice", i, e.name));
+    idx.paints.push_back(std::move(e));
+  }
+  std::sort(idx.paints.begin(), idx.paints.end(),
+            [](const LibraryEntry& a, const LibraryEntry& b) { return a.name < b.name; });
+  return idx;
+}
+
+void PaintLibrary::write_index(const Index& index) const {
+  Json paints = Json::array();
+  for (const auto& e : index.paints) paints.push_back(e.to_json());
+  const Json j = {{"format", kLibraryFormat},
+                  {"format_version", kLibraryFormatVersion},
+                  {"updated_utc", utc_timestamp()},
+                  {"software_version", software_version()},
+                  {"next_id", index.next_id},
+                  {"paints", paints}};
+  write_json_file(dir_ / kLibraryIndexFile, j);
+}
+
+void PaintLibrary::step(const std::string& name) const {
+  if (hook_) hook_(name);
+}
+
+std::vector<LibraryEntry> PaintLibrary::list() const { return read_index().paints; }
+
+LibraryEntry PaintLibrary::find(const std::string& name) const {
+  const Index idx = read_index();
+  for (const auto& e : idx.paints)
+    if (e.name == name) return e;
+  throw DataError("library " + dir_.string() + ": no paint '" + name + "' (paints: " + names_of(idx.paints) + ")");
+}
+
+AxfPaint PaintLibrary::load(const std::string& name) const {
+  const LibraryEntry e = find(name);
+  const fs::path file = dir_ / e.file;
+  if (!fs::exists(file))
+    throw DataError("library " + dir_.string() + ": the file " + e.file + " of paint '" + name + "' is missing");
+  const std::string sum = sha256_file(file);
+  if (sum != e.sha256)
+    throw DataError("library " + dir_.string() + ": the file " + e.file + " of paint '" + name +
+                    "' changed since it was added (sha256 " + sum + ", index says " + e.sha256 + ")");
+  return read_axf_file(file);
+}
+
+LibraryEntry PaintLibrary::add(const AxfPaint& paint, bool replace) {
+  check_axf_paint(paint);  // before taking the lock or touching the folder
+  DirLock lock(dir_);
+  step("locked");
+  remove_stale_temps(dir_);
+  Index idx = read_index();
+  auto old = std::find_if(idx.paints.begin(), idx.paints.end(),
+                          [&](const LibraryEntry& e) { return e.name == paint.name; });
+  if (old != idx.paints.end() && !replace)
+    throw DataError("library " + dir_.string() + ": a paint named '" + paint.name + "' is already there (added " +
+                    old->added_utc + "); use --replace to replace it");
+
+  // A new file name for every add: the old index keeps naming a whole, unchanged file
+  // until the new index replaces it. Files left by an interrupted add are never reused.
+  std::int64_t id = idx.next_id;
+  std::string file;
+  for (;; ++id) {
+    file = fmt::format("{}.{}{}", paint.name, id, kPaintSuffix);
+    if (!fs::exists(dir_ / file) && std::none_of(idx.paints.begin(), idx.paints.end(),
+                                                 [&](const LibraryEntry& e) { return e.file == file; }))
+      break;
+  }
+  write_axf_file(dir_ / file, paint);
+  step("paint-written");
+
+  const AxfPaint written = read_axf_file(dir_ / file);
+  LibraryEntry entry;
+  entry.name = written.name;
+  entry.file = file;
+  entry.sha256 = sha256_file(dir_ / file);
+  entry.model = written.model;
+  entry.date = written.provenance.measured_utc.empty() ? written.provenance.exported_utc
+                                                       : written.provenance.measured_utc;
+  entry.added_utc = utc_timestamp();
+  entry.sample = written.provenance.sample_name;
+  if (written.fit_quality) {
+    entry.log_rms = written.fit_quality->log_rms;
+    entry.bins_used = written.fit_quality->bins_used;
+  }
+
+  std::optional<std::string> old_file;
+  if (old != idx.paints.end()) {
+    old_file = old->file;
+    *old = entry;
+  } else {
+    idx.paints.push_back(entry);
+  }
+  idx.next_id = id + 1;
+  std::sort(idx.paints.begin(), idx.paints.end(),
+            [](const LibraryEntry& a, const LibraryEntry& b) { return a.name < b.name; });
+  write_index(idx);
+  step("index-written");
+  if (old_file) {
+    std::error_code ec;
+    fs::remove(dir_ / *old_file, ec);  // a leftover is reported by check(), never harmful
+    step("old-file-removed");
+  }
+  return entry;
+}
+
+void PaintLibrary::remove(const std::string& name) {
+  DirLock lock(dir_);
+  step("locked");
+  Index idx = read_index();
+  auto it = std::find_if(idx.paints.begin(), idx.paints.end(), [&](const LibraryEntry& e) { return e.name == name; });
+  if (it == idx.paints.end())
+    throw DataError("library " + dir_.string() + ": no paint '" + name + "' (paints: " + names_of(idx.paints) + ")");
+  const std::string file = it->file;
+  idx.paints.erase(it);
+  write_index(idx);
+  step("index-written");
+  std::error_code ec;
+  fs::remove(dir_ / file, ec);
+  step("file-removed");
+}
+
+void PaintLibrary::export_h5(const fs::path& file) const {
+  std::vector<AxfPaint> paints;
+  for (const auto& e : list()) paints.push_back(load(e.name));
+  write_axf_library_file(file, paints);
+}
+
+std::vector<fs::path> PaintLibrary::export_folder(const fs::path& folder, bool overwrite) const {
+  const auto entries = list();
+  std::vector<AxfPaint> paints;
+  for (const auto& e : entries) paints.push_back(load(e.name));  // every checksum before writing anything
+  std::vector<fs::path> out;
+  std::string existing;
+  for (const auto& e : entries) {
+    out.push_back(folder / (e.name + kPaintSuffix));
+    if (fs::exists(out.back())) existing += (existing.empty() ? "" : ", ") + out.back().filename().string();
+  }
+  if (!existing.empty() && !overwrite)
+    throw IoError(folder.string(), "would overwrite " + existing + " (use --overwrite to replace them)");
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (ec) throw IoError(folder.string(), "cannot create the folder: " + ec.message());
+  for (std::size_t i = 0; i < paints.size(); ++i) write_axf_file(out[i], paints[i]);
+  return out;
+}
+
+std::vector<std::string> PaintLibrary::check() const {
+  std::vector<std::string> findings;
+  const Index idx = read_index();
+  std::set<std::string> named;
+  for (const auto& e : idx.paints) {
+    named.insert(e.file);
+    const fs::path file = dir_ / e.file;
+    if (!fs::exists(file)) {
+      findings.push_back("paint '" + e.name + "': file " + e.file + " is missing");
+      continue;
+    }
+    if (sha256_file(file) != e.sha256)
+      findings.push_back("paint '" + e.name + "': file " + e.file + " changed since it was added (checksum)");
+  }
+  for (const auto& d : fs::directory_iterator(dir_)) {
+    const std::string n = d.path().filename().string();
+    if (ends_with(n, kPaintSuffix) && n.front() != '.' && !named.count(n))
+      findings.push_back("file " + n + " is not in the index (left by an interrupted add or replace)");
+  }
+  return findings;
+}
+
+}  // namespace paintlab::fit

@@ -1,0 +1,305 @@
+// The paint library: add / list / show (load) / remove / export, duplicate names, checksums,
+// crashes during add (a child process killed at every step and at random times: the index
+// is the old or the new one and every file it names is whole), concurrent writers, and the
+// `paintlab library` commands.
+#include "paintlab/fitting/paint_library.h"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/json.h"
+#include "paintlab/core/version.h"
+#include "test_util.h"
+
+namespace fs = std::filesystem;
+using namespace paintlab;
+using namespace paintlab::fit;
+using ::testing::HasSubstr;
+
+namespace {
+
+AxfPaint make_paint(const std::string& name, double m0 = 0.3, bool fitted = true) {
+  AxfPaint p;
+  p.name = name;
+  p.model = "cook-torrance";
+  AxfCookTorrance ct;
+  ct.params.kd = brdf::Rgb(0.03, 0.032, 0.035);
+  ct.params.lobes = {{brdf::Rgb(0.06, 0.062, 0.066), m0, 0.85}, {brdf::Rgb(0.15, 0.15, 0.15), 0.015, 0.04}};
+  p.cook_torrance = ct;
+  if (fitted) {
+    AxfFitQuality q;
+    q.log_rms = 0.02 + m0 / 100;
+    q.bins_used = 5000;
+    q.residual = {{"log_rms", q.log_rms}, {"bins_used", 5000}};
+    p.fit_quality = q;
+    p.provenance.measured_utc = "2026-11-20T09:15:00Z";
+    p.provenance.sample_name = "panel-" + name;
+  }
+  return p;
+}
+
+// Runs `body` in a child process; returns the wait status.
+int run_child(const std::function<void()>& body) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    try {
+      body();
+    } catch (...) {
+      _exit(3);
+    }
+    _exit(0);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return status;
+}
+
+// The library is consistent: the index parses, names are unique, every file it names
+// exists, matches its checksum and reads back as the named paint. Only files left by an
+// interrupted add may be extra.
+void expect_consistent(const PaintLibrary& lib) {
+  const auto entries = lib.list();
+  for (const auto& e : entries) {
+    SCOPED_TRACE(e.name);
+    const AxfPaint p = lib.load(e.name);
+    EXPECT_EQ(p.name, e.name);
+  }
+  for (const auto& finding : lib.check()) EXPECT_THAT(finding, HasSubstr("is not in the index")) << finding;
+}
+
+std::vector<std::string> names(const std::vector<LibraryEntry>& entries) {
+  std::vector<std::string> out;
+  for (const auto& e : entries) out.push_back(e.name);
+  return out;
+}
+
+}  // namespace
+
+TEST(PaintLibrary, AddListLoadRemove) {
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp / "lib", true);
+  EXPECT_TRUE(fs::exists(tmp / "lib/index.json"));
+  EXPECT_TRUE(lib.list().empty());
+  const AxfPaint silver = make_paint("silver", 0.3);
+  const AxfPaint blue = make_paint("blue", 0.2, false);
+  const LibraryEntry es = lib.add(silver, false);
+  lib.add(blue, false);
+
+  const auto entries = lib.list();
+  ASSERT_EQ(names(entries), (std::vector<std::string>{"blue", "silver"}));
+  EXPECT_EQ(entries[1], es);
+  EXPECT_EQ(es.model, "cook-torrance");
+  EXPECT_EQ(es.date, "2026-11-20T09:15:00Z");
+  EXPECT_EQ(es.sample, "panel-silver");
+  ASSERT_TRUE(es.log_rms);
+  EXPECT_DOUBLE_EQ(*es.log_rms, 0.023);
+  EXPECT_EQ(es.bins_used, 5000);
+  EXPECT_FALSE(entries[0].log_rms);  // not a fit
+  EXPECT_GT(parse_utc_timestamp(entries[0].date), 0);  // export time when never measured
+
+  const AxfPaint back = lib.load("silver");
+  EXPECT_EQ(*back.cook_torrance, *silver.cook_torrance);
+  EXPECT_EQ(*back.fit_quality, *silver.fit_quality);
+
+  // Reopening sees the same index.
+  EXPECT_EQ(PaintLibrary::open(tmp / "lib", false).list(), entries);
+
+  lib.remove("silver");
+  EXPECT_EQ(names(lib.list()), std::vector<std::string>{"blue"});
+  EXPECT_FALSE(fs::exists(tmp / "lib" / es.file));
+  try {
+    lib.remove("silver");
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no paint 'silver' (paints: blue)"));
+  }
+  EXPECT_TRUE(lib.check().empty());
+}
+
+TEST(PaintLibrary, DuplicateNamesNeedReplace) {
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp.path(), true);
+  const LibraryEntry first = lib.add(make_paint("silver", 0.3), false);
+  const std::string index_before = read_file(tmp / "index.json");
+  try {
+    lib.add(make_paint("silver", 0.4), false);
+    FAIL() << "a duplicate name was accepted";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("a paint named 'silver' is already there"));
+    EXPECT_THAT(e.what(), HasSubstr("--replace"));
+  }
+  EXPECT_EQ(read_file(tmp / "index.json"), index_before);
+  EXPECT_TRUE(lib.check().empty());
+
+  const LibraryEntry second = lib.add(make_paint("silver", 0.4), true);
+  EXPECT_NE(second.file, first.file);
+  EXPECT_FALSE(fs::exists(tmp / first.file));
+  ASSERT_EQ(lib.list().size(), 1u);
+  EXPECT_DOUBLE_EQ(lib.load("silver").cook_torrance->params.lobes[0].m, 0.4);
+  EXPECT_TRUE(lib.check().empty());
+}
+
+TEST(PaintLibrary, RefusesFoldersThatAreNotLibraries) {
+  test::TempDir tmp;
+  EXPECT_THROW(PaintLibrary::open(tmp / "none", false), DataError);
+  test::write_text(tmp / "other/notes.txt", "not a library\n");
+  try {
+    PaintLibrary::open(tmp / "other", true);
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("not empty"));
+  }
+  test::write_text(tmp / "broken/index.json", "{\"format\": \"paintlab-library\", \"format_version\": 9, \"paints\": []}");
+  EXPECT_THROW(PaintLibrary::open(tmp / "broken", false), DataError);
+}
+
+TEST(PaintLibrary, ChangedFilesAreDetected) {
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp.path(), true);
+  const LibraryEntry e = lib.add(make_paint("silver"), false);
+  const std::string bytes = read_file(tmp / e.file);
+  write_file_atomic(tmp / e.file, bytes.substr(0, bytes.size() / 2));
+  try {
+    lib.load("silver");
+    FAIL();
+  } catch (const DataError& err) {
+    EXPECT_THAT(err.what(), HasSubstr("changed since it was added"));
+  }
+  ASSERT_EQ(lib.check().size(), 1u);
+  EXPECT_THAT(lib.check()[0], HasSubstr("changed since it was added"));
+}
+
+TEST(PaintLibrary, ExportAsOneFileOrAFolder) {
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp / "lib", true);
+  lib.add(make_paint("silver", 0.3), false);
+  lib.add(make_paint("blue", 0.2, false), false);
+
+  lib.export_h5(tmp / "all.h5");
+  const auto all = read_axf_library_file(tmp / "all.h5");
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[0].name, "blue");
+  EXPECT_EQ(all[1], lib.load("silver"));
+
+  const auto files = lib.export_folder(tmp / "out", false);
+  ASSERT_EQ(files.size(), 2u);
+  EXPECT_EQ(read_axf_file(tmp / "out/silver.axf.h5"), lib.load("silver"));
+  EXPECT_THROW(lib.export_folder(tmp / "out", false), IoError);
+  EXPECT_NO_THROW(lib.export_folder(tmp / "out", true));
+}
+
+// A child adding a paint is killed (SIGKILL) at each step of the add; afterwards the
+// index is exactly the old one (killed before the index was replaced) or the new one.
+TEST(PaintLibrary, CrashAtEveryStepOfAddLeavesOldOrNewIndex) {
+  for (bool replace : {false, true}) {
+    for (const std::string step : {"locked", "paint-written", "index-written", "old-file-removed"}) {
+      if (step == "old-file-removed" && !replace) continue;
+      SCOPED_TRACE(step + (replace ? " (replace)" : ""));
+      test::TempDir tmp;
+      PaintLibrary lib = PaintLibrary::open(tmp.path(), true);
+      lib.add(make_paint("blue", 0.2), false);
+      lib.add(make_paint("silver", 0.3), false);
+      const auto before = lib.list();
+
+      const int status = run_child([&] {
+        PaintLibrary child = PaintLibrary::open(tmp.path(), false);
+        child.set_step_hook([&](const std::string& s) {
+          if (s == step) raise(SIGKILL);
+        });
+        child.add(make_paint(replace ? "silver" : "red", 0.5), replace);
+      });
+      ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "the child was not killed at " << step;
+
+      const auto after = lib.list();
+      const bool index_replaced = step == "index-written" || step == "old-file-removed";
+      if (!index_replaced) {
+        EXPECT_EQ(after, before);
+      } else {
+        EXPECT_EQ(after.size(), before.size() + (replace ? 0 : 1));
+        const std::string changed = replace ? "silver" : "red";
+        EXPECT_DOUBLE_EQ(lib.load(changed).cook_torrance->params.lobes[0].m, 0.5);
+      }
+      expect_consistent(lib);
+      // The library keeps working after the crash.
+      lib.add(make_paint("green", 0.25), false);
+      expect_consistent(lib);
+    }
+  }
+}
+
+// Killed at random moments while adding one paint after another: every time, the index
+// holds a prefix of the sequence and every file it names is whole.
+TEST(PaintLibrary, CrashAtRandomTimesDuringAdds) {
+  std::mt19937_64 rng(test::seed());
+  std::uniform_int_distribution<int> delay_us(0, 400000);
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp.path(), true);
+  std::vector<std::string> sequence;
+  for (int i = 0; i < 40; ++i) sequence.push_back("paint-" + std::to_string(100 + i));
+  int killed_mid_run = 0;
+  for (int round = 0; round < 6; ++round) {
+    SCOPED_TRACE(round);
+    const std::size_t have = lib.list().size();
+    const pid_t pid = fork();
+    if (pid == 0) {
+      try {
+        PaintLibrary child = PaintLibrary::open(tmp.path(), false);
+        for (std::size_t i = have; i < sequence.size(); ++i)
+          child.add(make_paint(sequence[i], 0.1 + 0.01 * static_cast<double>(i)), false);
+      } catch (...) {
+        _exit(3);
+      }
+      _exit(0);
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(delay_us(rng)));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    if (WIFSIGNALED(status)) ++killed_mid_run;
+    else
+      ASSERT_EQ(WEXITSTATUS(status), 0);
+    const auto entries = lib.list();
+    ASSERT_GE(entries.size(), have);
+    // Entries are sorted by name and the sequence is in name order: a prefix.
+    for (std::size_t i = 0; i < entries.size(); ++i) EXPECT_EQ(entries[i].name, sequence[i]);
+    expect_consistent(lib);
+  }
+  EXPECT_GT(killed_mid_run, 0);
+  EXPECT_GT(lib.list().size(), 0u);  // the children got somewhere between the kills
+}
+
+TEST(PaintLibrary, ConcurrentWritersLoseNothing) {
+  test::TempDir tmp;
+  PaintLibrary::open(tmp.path(), true);
+  std::vector<pid_t> pids;
+  for (const char* prefix : {"a", "b"}) {
+    const pid_t pid = fork();
+    if (pid == 0) {
+      try {
+        PaintLibrary child = PaintLibrary::open(tmp.path(), false);
+        for (int i = 0; i < 8; ++i) child.add(make_paint(std::string(prefix) + "-" + std::to_string(i)), false);
+      } catch (...) {
+        _exit(3);
+      }
+      _exit(0);
+    }
+    pids.push_back(pid);
+  }
+  for (pid_t pid : pids) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  }
+  const PaintLibrary lib = PaintLibrary::open(tmp.path(), false);
+  EXPECT_EQ(lib.list().size(), 16u);
+  expect_consistent(lib);
+}
