@@ -416,9 +416,11 @@ LightModel model_from(const CircleParams& p, const Vec3& centre, const Vec3& a0,
   return m;
 }
 
+}  // namespace
+
 // Angle (deg) between the observed ray and the model's direction, and its component along
 // the circle: the observed ray is intersected with the LED circle's cylinder.
-void residuals(const LightModel& m, Highlight* h) {
+void highlight_residual(const LightModel& m, Highlight* h) {
   const Vec3 L = m.led_position_cam(h->table_angle_deg);
   h->residual_deg = rad_to_deg(angle_between(L - h->point_cam, h->mirror_dir));
   const Rigid3 rig_from_cam = m.cam_from_rig().inverse();
@@ -435,8 +437,6 @@ void residuals(const LightModel& m, Highlight* h) {
     h->azimuth_error_deg = angle_diff_deg(rad_to_deg(std::atan2(q.y(), q.x())), h->table_angle_deg + m.zero_deg);
   }
 }
-
-}  // namespace
 
 LightCalibration fit_light_model(std::vector<Highlight> highlights, const SphereFit& sphere, const RigGeometry& nominal,
                                  const LightOptions& options) {
@@ -551,7 +551,7 @@ LightCalibration fit_light_model(std::vector<Highlight> highlights, const Sphere
     std::vector<double> res;
     for (std::size_t i = 0; i < highlights.size(); ++i) {
       if (!highlights[i].found) continue;
-      residuals(m, &highlights[i]);
+      highlight_residual(m, &highlights[i]);
       if (use[i]) res.push_back(highlights[i].residual_deg);
     }
     double limit = options.outlier_deg;

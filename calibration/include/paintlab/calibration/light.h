@@ -131,6 +131,10 @@ LightCalibration calibrate_light(const std::vector<HighlightImage>& images, cons
                                  const SphereFit& sphere, const RigGeometry& nominal,
                                  const LightOptions& options = {});
 
+// Sets h.residual_deg (angle between the observed mirror ray and the model's LED) and
+// h.azimuth_error_deg (the observed ray met with the LED circle, azimuth against the model).
+void highlight_residual(const LightModel& model, Highlight* h);
+
 // The same from highlights already found (their table angle, point, mirror direction).
 LightCalibration fit_light_model(std::vector<Highlight> highlights, const SphereFit& sphere,
                                  const RigGeometry& nominal, const LightOptions& options = {});
