@@ -1,0 +1,274 @@
+#include "paintlab/calibration/dark.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "paintlab/core/error.h"
+#include "paintlab/core/hash.h"
+#include "paintlab/core/image_io.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::calib {
+
+namespace {
+
+const char* kChannelSuffix[3] = {".R", ".G", ".B"};
+
+std::string plane_name(const std::string& base, int c, int channels) {
+  return channels == 1 ? base : base + kChannelSuffix[c];
+}
+
+// Median of `v` (modified).
+double median_of(std::vector<float>& v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
+double DarkFrame::hot_fraction() const {
+  const auto n = hot.pixel_count();
+  return n == 0 ? 0.0 : static_cast<double>(hot_count) / static_cast<double>(n);
+}
+
+void DarkOptions::check() const {
+  if (!(hot_sigma > 0.0)) throw UsageError(fmt::format("dark: hot_sigma = {}; must be > 0", hot_sigma));
+  if (!(hot_min_dn >= 0.0)) throw UsageError(fmt::format("dark: hot_min_dn = {}; must be >= 0", hot_min_dn));
+  if (!(noisy_factor > 1.0)) throw UsageError(fmt::format("dark: noisy_factor = {}; must be > 1", noisy_factor));
+}
+
+DarkFrame calibrate_dark(std::span<const StackFrame> frames, int bit_depth, const DarkOptions& options) {
+  options.check();
+  check_stack(frames, bit_depth, 1);
+  const auto& first = *frames[0].pixels;
+  const int W = first.width();
+  const int H = first.height();
+  const int C = first.channels();
+  const std::size_t S = first.size();
+
+  // Group the frames by exposure time.
+  struct Group {
+    double t;
+    std::vector<const Image<std::uint16_t>*> images;
+  };
+  std::vector<Group> groups;
+  for (const auto& f : frames) {
+    auto it = std::find_if(groups.begin(), groups.end(),
+                           [&](const Group& g) { return std::abs(g.t - f.exposure_s) <= 1e-6 * g.t; });
+    if (it == groups.end()) groups.push_back({f.exposure_s, {f.pixels}});
+    else it->images.push_back(f.pixels);
+  }
+  std::sort(groups.begin(), groups.end(), [](const Group& a, const Group& b) { return a.t < b.t; });
+  const std::size_t G = groups.size();
+
+  DarkFrame d;
+  d.bit_depth = bit_depth;
+  d.frame_count = static_cast<int>(frames.size());
+  for (const auto& g : groups) d.exposures_s.push_back(g.t);
+  d.bias_dn = ImageF(W, H, C);
+  d.rate_dn_per_s = ImageF(W, H, C);
+  d.hot = ImageU8(W, H, 1);
+
+  // Per group: mean and (with >= 2 frames) variance of every value; pooled variance over groups.
+  std::vector<std::vector<float>> mean(G, std::vector<float>(S));
+  std::vector<float> pooled_var(S, 0.0f);
+  std::vector<float> shortest_var;  // variance at the shortest exposure with >= 2 frames
+  int pooled_dof = 0;
+  int shortest_group = -1;
+  for (std::size_t gi = 0; gi < G; ++gi) {
+    const auto& imgs = groups[gi].images;
+    const std::size_t n = imgs.size();
+    if (n >= 2) {
+      pooled_dof += static_cast<int>(n) - 1;
+      if (shortest_group < 0) shortest_group = static_cast<int>(gi);
+    }
+  }
+  if (shortest_group >= 0) shortest_var.assign(S, 0.0f);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, S, 16384), [&](const auto& r) {
+    for (std::size_t gi = 0; gi < G; ++gi) {
+      const auto& imgs = groups[gi].images;
+      const double n = static_cast<double>(imgs.size());
+      for (std::size_t s = r.begin(); s < r.end(); ++s) {
+        double sum = 0.0, sq = 0.0;
+        for (const auto* img : imgs) {
+          const double v = img->data()[s];
+          sum += v;
+          sq += v * v;
+        }
+        const double m = sum / n;
+        mean[gi][s] = static_cast<float>(m);
+        if (imgs.size() >= 2) {
+          const double ss = std::max(0.0, sq - n * m * m);
+          pooled_var[s] += static_cast<float>(ss);
+          if (static_cast<int>(gi) == shortest_group) shortest_var[s] = static_cast<float>(ss / (n - 1.0));
+        }
+      }
+    }
+    for (std::size_t s = r.begin(); s < r.end(); ++s) {
+      if (pooled_dof > 0) pooled_var[s] /= static_cast<float>(pooled_dof);
+      if (G >= 2) {
+        // Weighted least squares line through the group means: level = bias + rate * t.
+        double sw = 0, st = 0, sv = 0, stt = 0, stv = 0;
+        for (std::size_t gi = 0; gi < G; ++gi) {
+          const double w = static_cast<double>(groups[gi].images.size());
+          const double t = groups[gi].t;
+          const double v = mean[gi][s];
+          sw += w;
+          st += w * t;
+          sv += w * v;
+          stt += w * t * t;
+          stv += w * t * v;
+        }
+        const double det = sw * stt - st * st;
+        const double rate = det > 0.0 ? (sw * stv - st * sv) / det : 0.0;
+        d.rate_dn_per_s.data()[s] = static_cast<float>(rate);
+        d.bias_dn.data()[s] = static_cast<float>((sv - rate * st) / sw);
+      } else {
+        d.bias_dn.data()[s] = mean[0][s];
+        d.rate_dn_per_s.data()[s] = 0.0f;
+      }
+    }
+  });
+
+  // Read noise: median temporal std at the shortest exposure with repeated frames.
+  if (shortest_group >= 0) {
+    std::vector<float> sd(S);
+    for (std::size_t s = 0; s < S; ++s) sd[s] = std::sqrt(shortest_var[s]);
+    d.read_noise_dn = median_of(sd);
+    d.read_noise_measured = true;
+  }
+
+  // Hot pixels: level at the longest exposure far above the median of its channel; noisy
+  // pixels: temporal std far above the median.
+  const double t_max = groups.back().t;
+  const std::size_t P = static_cast<std::size_t>(W) * H;
+  for (int c = 0; c < C; ++c) {
+    std::vector<float> level(P);
+    for (std::size_t p = 0; p < P; ++p) level[p] = d.level(p * C + c, t_max);
+    std::vector<float> tmp = level;
+    const double med = median_of(tmp);
+    for (auto& v : tmp) v = std::abs(v - static_cast<float>(med));
+    const double sigma = std::max(1.4826 * median_of(tmp), 0.5);
+    const double limit = med + std::max(options.hot_sigma * sigma, options.hot_min_dn);
+    for (std::size_t p = 0; p < P; ++p)
+      if (level[p] > limit) d.hot.data()[p] = 1;
+    if (pooled_dof > 0) {
+      std::vector<float> sd(P);
+      for (std::size_t p = 0; p < P; ++p) sd[p] = std::sqrt(pooled_var[p * C + c]);
+      std::vector<float> tmp2 = sd;
+      const double med_sd = std::max(median_of(tmp2), 0.5);
+      for (std::size_t p = 0; p < P; ++p)
+        if (sd[p] > options.noisy_factor * med_sd) d.hot.data()[p] = 1;
+    }
+  }
+  double sum_b = 0.0, sum_r = 0.0;
+  long long n = 0;
+  for (std::size_t p = 0; p < P; ++p) {
+    if (d.hot.data()[p]) {
+      ++d.hot_count;
+      continue;
+    }
+    for (int c = 0; c < C; ++c) {
+      sum_b += d.bias_dn.data()[p * C + c];
+      sum_r += d.rate_dn_per_s.data()[p * C + c];
+      ++n;
+    }
+  }
+  if (n == 0) throw CalibrationError("dark: every pixel is hot; these are not dark frames");
+  d.mean_bias_dn = sum_b / static_cast<double>(n);
+  d.mean_rate_dn_per_s = sum_r / static_cast<double>(n);
+  return d;
+}
+
+Json DarkFrame::to_json(const std::string& map_file, const std::string& map_sha256) const {
+  Json j = {{"provenance", provenance.to_json()},
+            {"bit_depth", bit_depth},
+            {"width", width()},
+            {"height", height()},
+            {"channels", channels()},
+            {"frame_count", frame_count},
+            {"exposures_s", exposures_s},
+            {"mean_bias_dn", mean_bias_dn},
+            {"mean_rate_dn_per_s", mean_rate_dn_per_s},
+            {"hot_count", hot_count},
+            {"hot_fraction", hot_fraction()},
+            {"maps", {{"file", map_file}, {"sha256", map_sha256}}}};
+  j["read_noise_dn"] = read_noise_measured ? Json(read_noise_dn) : Json(nullptr);
+  return j;
+}
+
+void DarkFrame::save(const fs::path& json_path) const {
+  const fs::path exr_path = fs::path(json_path).replace_extension(".exr");
+  ExrImage maps;
+  const int C = channels();
+  for (int c = 0; c < C; ++c) {
+    ImageF b(width(), height(), 1), r(width(), height(), 1);
+    for (std::size_t p = 0; p < b.size(); ++p) {
+      b.data()[p] = bias_dn.data()[p * C + c];
+      r.data()[p] = rate_dn_per_s.data()[p * C + c];
+    }
+    maps.add(plane_name("bias", c, C), std::move(b));
+    maps.add(plane_name("rate", c, C), std::move(r));
+  }
+  ImageF h(width(), height(), 1);
+  for (std::size_t p = 0; p < h.size(); ++p) h.data()[p] = hot.data()[p];
+  maps.add("hot", std::move(h));
+  maps.attributes["paintlab.kind"] = "dark";
+  write_exr(exr_path, maps);
+  write_json_file(json_path, to_json(exr_path.filename().string(), sha256_file(exr_path)));
+}
+
+DarkFrame DarkFrame::load(const fs::path& json_path) {
+  const Json j = read_json_file(json_path);
+  const std::string where = json_path.string();
+  DarkFrame d;
+  if (j.contains("provenance")) d.provenance = Provenance::from_json(j.at("provenance"), where);
+  d.bit_depth = json_get<int>(j, "bit_depth", where);
+  const int W = json_get<int>(j, "width", where);
+  const int H = json_get<int>(j, "height", where);
+  const int C = json_get<int>(j, "channels", where);
+  if (W <= 0 || H <= 0 || (C != 1 && C != 3)) throw DataError(where + ": bad width, height or channels");
+  d.frame_count = json_get<int>(j, "frame_count", where);
+  d.exposures_s = json_get<std::vector<double>>(j, "exposures_s", where);
+  d.mean_bias_dn = json_get<double>(j, "mean_bias_dn", where);
+  d.mean_rate_dn_per_s = json_get<double>(j, "mean_rate_dn_per_s", where);
+  if (j.contains("read_noise_dn") && !j.at("read_noise_dn").is_null()) {
+    d.read_noise_dn = json_get<double>(j, "read_noise_dn", where);
+    d.read_noise_measured = true;
+  }
+  const Json& maps_ref = j.contains("maps") ? j.at("maps") : throw DataError(where + ": missing key 'maps'");
+  const fs::path exr_path = json_path.parent_path() / json_get<std::string>(maps_ref, "file", where);
+  const std::string sha = json_get<std::string>(maps_ref, "sha256", where);
+  if (!fs::exists(exr_path)) throw DataError(where + ": its map file " + exr_path.string() + " is missing");
+  if (sha256_file(exr_path) != sha)
+    throw DataError(where + ": its map file " + exr_path.string() + " does not match the recorded SHA-256");
+  const ExrImage maps = read_exr(exr_path);
+  if (maps.width != W || maps.height != H)
+    throw DataError(fmt::format("{}: {}x{} maps, the JSON says {}x{}", exr_path.string(), maps.width, maps.height, W, H));
+  d.bias_dn = ImageF(W, H, C);
+  d.rate_dn_per_s = ImageF(W, H, C);
+  d.hot = ImageU8(W, H, 1);
+  for (int c = 0; c < C; ++c) {
+    const ImageF& b = maps.plane(plane_name("bias", c, C));
+    const ImageF& r = maps.plane(plane_name("rate", c, C));
+    for (std::size_t p = 0; p < b.size(); ++p) {
+      d.bias_dn.data()[p * C + c] = b.data()[p];
+      d.rate_dn_per_s.data()[p * C + c] = r.data()[p];
+    }
+  }
+  const ImageF& h = maps.plane("hot");
+  for (std::size_t p = 0; p < h.size(); ++p) {
+    d.hot.data()[p] = h.data()[p] > 0.5f ? 1 : 0;
+    d.hot_count += d.hot.data()[p];
+  }
+  return d;
+}
+
+}  // namespace paintlab::calib

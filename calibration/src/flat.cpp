@@ -1,0 +1,269 @@
+#include "paintlab/calibration/flat.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "paintlab/calibration/dark.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/hash.h"
+#include "paintlab/core/image_io.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::calib {
+
+namespace {
+
+std::string flat_plane(int c, int channels) {
+  static const char* suffix[3] = {".R", ".G", ".B"};
+  return channels == 1 ? std::string("flat") : std::string("flat") + suffix[c];
+}
+
+double median_of(std::vector<float>& v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
+void FlatOptions::check() const {
+  if (!(max_saturated_fraction >= 0.0 && max_saturated_fraction < 1.0))
+    throw UsageError(fmt::format("flat: max_saturated_fraction = {}; must be in [0, 1)", max_saturated_fraction));
+  if (!(min_signal_frac > 0.0 && min_signal_frac < 1.0))
+    throw UsageError(fmt::format("flat: min_signal_frac = {}; must be in (0, 1)", min_signal_frac));
+}
+
+FlatField calibrate_flat(std::span<const StackFrame> frames, int bit_depth, const FlatOptions& options,
+                         const ResponseCurve* response, const DarkFrame* dark) {
+  options.check();
+  check_stack(frames, bit_depth, 1);
+  const auto& first = *frames[0].pixels;
+  const int W = first.width();
+  const int H = first.height();
+  const int C = first.channels();
+  const std::size_t S = first.size();
+  const std::size_t P = first.pixel_count();
+  if (dark && (dark->width() != W || dark->height() != H || dark->channels() != C))
+    throw DataError(fmt::format("flat: the dark frame is {}x{}x{}, the images {}x{}x{}", dark->width(), dark->height(),
+                                dark->channels(), W, H, C));
+  if (response && response->channels != C)
+    throw DataError(fmt::format("flat: the response has {} channel(s), the images {}", response->channels, C));
+
+  const double full_scale = std::ldexp(1.0, bit_depth) - 1.0;
+  const double saturation = response ? response->window.saturation_dn : full_scale;
+  const double black = response ? response->window.black_dn : 0.0;
+
+  // Linearised value per second, averaged over the frames.
+  std::vector<double> sum(S, 0.0);
+  std::vector<int> count(S, 0);
+  long long saturated = 0;
+  double signal_sum = 0.0;
+  for (const auto& f : frames) {
+    const std::uint16_t* z = f.pixels->data();
+    for (std::size_t s = 0; s < S; ++s) {
+      const double d = dark ? dark->level(s, f.exposure_s) : black;
+      const double u = z[s] - d;
+      signal_sum += u;
+      if (z[s] >= saturation) {
+        ++saturated;
+        continue;
+      }
+      const double y = response ? response->to_linear(static_cast<int>(s % C), u) : u;
+      sum[s] += y / f.exposure_s;
+      ++count[s];
+    }
+  }
+  FlatField out;
+  out.frame_count = static_cast<int>(frames.size());
+  for (const auto& f : frames) {
+    if (std::none_of(out.exposures_s.begin(), out.exposures_s.end(),
+                     [&](double t) { return std::abs(t - f.exposure_s) <= 1e-6 * t; }))
+      out.exposures_s.push_back(f.exposure_s);
+  }
+  const double total = static_cast<double>(S) * static_cast<double>(frames.size());
+  out.saturated_fraction = static_cast<double>(saturated) / total;
+  out.mean_signal_dn = signal_sum / total;
+  if (out.saturated_fraction > options.max_saturated_fraction)
+    throw CalibrationError(fmt::format(
+        "flat: {:.3g} % of the values are at or above saturation ({} DN), {:.3g} % allowed; lower the exposure or "
+        "the light",
+        100.0 * out.saturated_fraction, saturation, 100.0 * options.max_saturated_fraction));
+  if (out.mean_signal_dn < options.min_signal_frac * full_scale)
+    throw CalibrationError(fmt::format(
+        "flat: mean signal {:.1f} DN is below {:.0f} % of full scale ({} DN); raise the exposure or the light",
+        out.mean_signal_dn, 100.0 * options.min_signal_frac, full_scale));
+
+  auto trusted = [&](std::size_t p) { return !(dark && dark->hot.data()[p]); };
+  out.gain = ImageF(W, H, C);
+  for (int c = 0; c < C; ++c) {
+    double acc = 0.0;
+    long long n = 0;
+    for (std::size_t p = 0; p < P; ++p) {
+      const std::size_t s = p * C + c;
+      if (!trusted(p) || count[s] == 0) continue;
+      acc += sum[s] / count[s];
+      ++n;
+    }
+    if (n == 0 || !(acc > 0.0)) throw CalibrationError("flat: no usable pixel in channel " + std::to_string(c));
+    const double mean = acc / static_cast<double>(n);
+    for (std::size_t p = 0; p < P; ++p) {
+      const std::size_t s = p * C + c;
+      out.gain.data()[s] =
+          (!trusted(p) || count[s] == 0) ? 1.0f : static_cast<float>(sum[s] / count[s] / mean);
+    }
+  }
+
+  // Corner and centre blocks (1/8 of each side), averaged over the channels.
+  const int bw = std::max(1, W / 8);
+  const int bh = std::max(1, H / 8);
+  auto block_mean = [&](int x0, int y0) {
+    double acc = 0.0;
+    long long n = 0;
+    for (int y = y0; y < y0 + bh; ++y)
+      for (int x = x0; x < x0 + bw; ++x) {
+        if (!trusted(static_cast<std::size_t>(y) * W + x)) continue;
+        for (int c = 0; c < C; ++c) acc += out.gain.at(x, y, c);
+        n += C;
+      }
+    return n > 0 ? acc / static_cast<double>(n) : 1.0;
+  };
+  const double corners[4] = {block_mean(0, 0), block_mean(W - bw, 0), block_mean(0, H - bh),
+                             block_mean(W - bw, H - bh)};
+  const double lo = *std::min_element(corners, corners + 4);
+  const double hi = *std::max_element(corners, corners + 4);
+  out.corner_ratio = hi > 0.0 ? lo / hi : 0.0;
+  const double centre = block_mean((W - bw) / 2, (H - bh) / 2);
+  out.centre_to_corner = centre > 0.0 ? lo / centre : 0.0;
+
+  // Pixel non-uniformity: gain relative to its 7x7 local mean.
+  {
+    std::vector<float> rel;
+    rel.reserve(S);
+    for (int c = 0; c < C; ++c) {
+      cv::Mat g(H, W, CV_32F);
+      for (std::size_t p = 0; p < P; ++p) g.ptr<float>()[p] = out.gain.data()[p * C + c];
+      cv::Mat local;
+      cv::blur(g, local, cv::Size(7, 7), cv::Point(-1, -1), cv::BORDER_REFLECT);
+      for (std::size_t p = 0; p < P; ++p)
+        if (trusted(p) && local.ptr<float>()[p] > 0.0f) rel.push_back(g.ptr<float>()[p] / local.ptr<float>()[p] - 1.0f);
+    }
+    for (auto& v : rel) v = std::abs(v);
+    out.prnu_rel = 1.4826 * median_of(rel);
+  }
+
+  // Photon transfer: var(z1 - z2) / 2 = read^2 + gain * u over pairs of frames of one exposure.
+  {
+    double read_var = dark && dark->read_noise_measured ? dark->read_noise_dn * dark->read_noise_dn : 0.0;
+    double gain_sum = 0.0;
+    int pairs = 0;
+    for (std::size_t a = 0; a + 1 < frames.size(); ++a) {
+      const auto& fa = frames[a];
+      const auto& fb = frames[a + 1];
+      if (std::abs(fa.exposure_s - fb.exposure_s) > 1e-6 * fa.exposure_s) continue;
+      double sd = 0.0, sd2 = 0.0, su = 0.0;
+      long long n = 0;
+      for (std::size_t s = 0; s < S; ++s) {
+        const std::uint16_t za = fa.pixels->data()[s];
+        const std::uint16_t zb = fb.pixels->data()[s];
+        if (za >= saturation || zb >= saturation || !trusted(s / C)) continue;
+        const double d = static_cast<double>(za) - zb;
+        sd += d;
+        sd2 += d * d;
+        su += 0.5 * (za + zb) - (dark ? dark->level(s, fa.exposure_s) : black);
+        ++n;
+      }
+      if (n < 100) continue;
+      const double var = (sd2 - sd * sd / n) / (n - 1) / 2.0;
+      const double u = su / n;
+      if (u > 0.0) {
+        gain_sum += std::max(0.0, var - read_var) / u;
+        ++pairs;
+      }
+    }
+    if (pairs > 0) {
+      out.noise.gain_dn_per_e = gain_sum / pairs;
+      out.noise.read_noise_dn = std::sqrt(read_var);
+      out.noise.source = dark && dark->read_noise_measured ? "flat (photon transfer) + dark" : "flat (photon transfer)";
+    }
+  }
+  return out;
+}
+
+Json FlatField::to_json(const std::string& map_file, const std::string& map_sha256) const {
+  return {{"provenance", provenance.to_json()},
+          {"width", width()},
+          {"height", height()},
+          {"channels", channels()},
+          {"frame_count", frame_count},
+          {"exposures_s", exposures_s},
+          {"corner_ratio", corner_ratio},
+          {"centre_to_corner", centre_to_corner},
+          {"prnu_rel", prnu_rel},
+          {"mean_signal_dn", mean_signal_dn},
+          {"saturated_fraction", saturated_fraction},
+          {"noise", noise.to_json()},
+          {"maps", {{"file", map_file}, {"sha256", map_sha256}}}};
+}
+
+void FlatField::save(const fs::path& json_path) const {
+  const fs::path exr_path = fs::path(json_path).replace_extension(".exr");
+  ExrImage maps;
+  const int C = channels();
+  for (int c = 0; c < C; ++c) {
+    ImageF g(width(), height(), 1);
+    for (std::size_t p = 0; p < g.size(); ++p) g.data()[p] = gain.data()[p * C + c];
+    maps.add(flat_plane(c, C), std::move(g));
+  }
+  maps.attributes["paintlab.kind"] = "flat";
+  write_exr(exr_path, maps);
+  write_json_file(json_path, to_json(exr_path.filename().string(), sha256_file(exr_path)));
+}
+
+FlatField FlatField::load(const fs::path& json_path) {
+  const Json j = read_json_file(json_path);
+  const std::string where = json_path.string();
+  FlatField f;
+  if (j.contains("provenance")) f.provenance = Provenance::from_json(j.at("provenance"), where);
+  const int W = json_get<int>(j, "width", where);
+  const int H = json_get<int>(j, "height", where);
+  const int C = json_get<int>(j, "channels", where);
+  if (W <= 0 || H <= 0 || (C != 1 && C != 3)) throw DataError(where + ": bad width, height or channels");
+  f.frame_count = json_get<int>(j, "frame_count", where);
+  f.exposures_s = json_get<std::vector<double>>(j, "exposures_s", where);
+  f.corner_ratio = json_get<double>(j, "corner_ratio", where);
+  f.centre_to_corner = json_get<double>(j, "centre_to_corner", where);
+  f.prnu_rel = json_get<double>(j, "prnu_rel", where);
+  f.mean_signal_dn = json_get<double>(j, "mean_signal_dn", where);
+  f.saturated_fraction = json_get<double>(j, "saturated_fraction", where);
+  if (j.contains("noise")) f.noise = NoiseModel::from_json(j.at("noise"), where);
+  if (!j.contains("maps")) throw DataError(where + ": missing key 'maps'");
+  const Json& maps_ref = j.at("maps");
+  const fs::path exr_path = json_path.parent_path() / json_get<std::string>(maps_ref, "file", where);
+  const std::string sha = json_get<std::string>(maps_ref, "sha256", where);
+  if (!fs::exists(exr_path)) throw DataError(where + ": its map file " + exr_path.string() + " is missing");
+  if (sha256_file(exr_path) != sha)
+    throw DataError(where + ": its map file " + exr_path.string() + " does not match the recorded SHA-256");
+  const ExrImage maps = read_exr(exr_path);
+  if (maps.width != W || maps.height != H)
+    throw DataError(fmt::format("{}: {}x{} map, the JSON says {}x{}", exr_path.string(), maps.width, maps.height, W, H));
+  f.gain = ImageF(W, H, C);
+  for (int c = 0; c < C; ++c) {
+    const ImageF& g = maps.plane(flat_plane(c, C));
+    for (std::size_t p = 0; p < g.size(); ++p) {
+      const float v = g.data()[p];
+      if (!(v > 0.0f) || !std::isfinite(v))
+        throw DataError(fmt::format("{}: gain {} at pixel {} is not finite and > 0", exr_path.string(), v, p));
+      f.gain.data()[p * C + c] = v;
+    }
+  }
+  return f;
+}
+
+}  // namespace paintlab::calib
