@@ -139,9 +139,18 @@ DarkFrame calibrate_dark(std::span<const StackFrame> frames, int bit_depth, cons
 
   // Read noise: median temporal std at the shortest exposure with repeated frames.
   if (shortest_group >= 0) {
-    std::vector<float> sd(S);
-    for (std::size_t s = 0; s < S; ++s) sd[s] = std::sqrt(shortest_var[s]);
-    d.read_noise_dn = median_of(sd);
+    // The mean variance (unbiased, unlike the median of few-frame estimates) over the pixels
+    // whose variance is not far above the median (random-telegraph and hot pixels).
+    std::vector<float> tmp = shortest_var;
+    const double med = median_of(tmp);
+    double sum = 0.0;
+    long long n = 0;
+    for (float v : shortest_var)
+      if (v <= 9.0 * med + 1.0) {
+        sum += v;
+        ++n;
+      }
+    d.read_noise_dn = std::sqrt(sum / static_cast<double>(std::max<long long>(n, 1)));
     d.read_noise_measured = true;
   }
 

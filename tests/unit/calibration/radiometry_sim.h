@@ -19,12 +19,16 @@
 
 namespace paintlab::calib::radiometry_test {
 
-inline sim::CameraModel small_camera(int width, int height) {
+// A small camera; `vignetting` adds mechanical falloff 1 + v rho^2 (rho: distance from the
+// principal point / half diagonal) to the natural cos^4.
+inline sim::CameraModel small_camera(int width, int height, double vignetting = 0.0) {
   RigGeometry g;
   g.image_width_px = width;
   g.image_height_px = height;
   g.focal_length_mm = 12.0;
-  return sim::CameraModel(sim::SimConfig::defaults(g).camera);
+  sim::CameraTruth truth = sim::SimConfig::defaults(g).camera;
+  truth.vignetting = {vignetting, 0.0};
+  return sim::CameraModel(truth);
 }
 
 // `count` exposures from t0 up by `ratio`.

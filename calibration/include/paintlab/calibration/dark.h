@@ -20,7 +20,7 @@ struct DarkFrame {
   ImageF bias_dn;          // per pixel and channel: dark level at zero exposure (DN)
   ImageF rate_dn_per_s;    // per pixel and channel: dark current (DN/s); 0 if one exposure only
   ImageU8 hot;             // per pixel (one channel): 1 = hot or noisy, its values are not trusted
-  double read_noise_dn = 0.0;      // median temporal std at the shortest exposure; 0 = not measured
+  double read_noise_dn = 0.0;      // temporal std at the shortest exposure (RMS over pixels); 0 = not measured
   bool read_noise_measured = false;
   double mean_bias_dn = 0.0;       // mean of bias over the non-hot pixels
   double mean_rate_dn_per_s = 0.0;
