@@ -213,15 +213,18 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
         for (int dx = -1; dx <= 1; ++dx) nb[k++] = img.at(x + dx, y + dy);
       std::nth_element(nb, nb + 4, nb + 9);
       const double s = nb[4];
-      on_sphere.push_back(img.at(x, y));
-      diffs.push_back(std::abs(img.at(x + 1, y) - img.at(x, y)));
+      // Clipped pixels (+inf, or at saturated_at) can win the peak but not the statistics.
+      const double v0 = img.at(x, y), v1 = img.at(x + 1, y);
+      if (std::isfinite(v0) && v0 < image.saturated_at) on_sphere.push_back(v0);
+      if (std::isfinite(v0) && std::isfinite(v1) && v0 < image.saturated_at && v1 < image.saturated_at)
+        diffs.push_back(std::abs(v1 - v0));
       if (s > best) {
         best = s;
         bx = x;
         by = y;
       }
     }
-  if (on_sphere.size() < 50) {
+  if (on_sphere.size() < 50 || diffs.empty()) {
     hl.reason = "the sphere is not in the image";
     return hl;
   }

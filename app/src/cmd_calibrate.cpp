@@ -1,0 +1,381 @@
+// paintlab calibrate {intrinsics,sphere,light,scale,all}: the rig's geometric calibration
+// and its absolute scale (docs/calibration.md). Each step reads images from files or
+// captures them through the rig's devices, and writes one file of the calibration folder.
+//   paintlab calibrate intrinsics --images FILES... --board 9x6 --square 20 --out camera.json
+//   paintlab calibrate intrinsics --rig R --capture [--views 12]
+//   paintlab calibrate sphere --rig R (--images FILES... | --capture) [--angles 90,270]
+//   paintlab calibrate light  --rig R (--images FILES... | --capture) [--angles -150:150:10]
+//   paintlab calibrate scale  --rig R (--images FILES... | --capture) --albedo A [--angles -40,0,40]
+//   paintlab calibrate all    --rig R (--images DIR | --capture) [--albedo A]
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <sstream>
+
+#include "calibrate_support.h"
+#include "cli.h"
+#include "paintlab/calibration/intrinsics.h"
+#include "paintlab/calibration/light.h"
+#include "paintlab/calibration/record.h"
+#include "paintlab/calibration/rig_calibration.h"
+#include "paintlab/calibration/scale.h"
+#include "paintlab/calibration/sphere.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/geometry.h"
+#include "paintlab/core/image_io.h"
+#include "paintlab/core/rig.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::app {
+
+namespace {
+
+std::vector<CalibrateStep>& step_registry() {
+  static std::vector<CalibrateStep> steps;
+  return steps;
+}
+
+// "a,b,c" or "start:stop:step" (stop inclusive), degrees.
+std::vector<double> parse_angles(const std::string& text, const std::string& option) {
+  std::vector<double> out;
+  auto num = [&](const std::string& s) {
+    try {
+      std::size_t used = 0;
+      double v = std::stod(s, &used);
+      if (used != s.size() || !std::isfinite(v)) throw std::invalid_argument(s);
+      return v;
+    } catch (const std::exception&) {
+      throw UsageError(option + " '" + text + "': '" + s + "' is not a number of degrees");
+    }
+  };
+  if (text.find(':') != std::string::npos) {
+    std::vector<std::string> parts;
+    std::stringstream ss(text);
+    for (std::string p; std::getline(ss, p, ':');) parts.push_back(p);
+    if (parts.size() != 3) throw UsageError(option + " '" + text + "': expected START:STOP:STEP");
+    const double a = num(parts[0]), b = num(parts[1]), st = num(parts[2]);
+    if (!(st > 0) || b < a) throw UsageError(option + " '" + text + "': need STEP > 0 and STOP >= START");
+    for (double v = a; v <= b + 1e-9; v += st) out.push_back(v);
+  } else {
+    std::stringstream ss(text);
+    for (std::string p; std::getline(ss, p, ',');) out.push_back(num(p));
+  }
+  if (out.empty()) throw UsageError(option + ": no angles given");
+  return out;
+}
+
+Json provenance_devices(const CalibrateContext& c) { return c.session ? c.session->serials : Json::object(); }
+
+std::vector<fs::path> inputs_of(const std::vector<Shot>& shots) {
+  std::vector<fs::path> f;
+  for (const auto& s : shots)
+    if (!s.file.empty()) f.push_back(s.file);
+  return f;
+}
+
+fs::path out_file(const RigConfig& rig, const char* name) {
+  fs::create_directories(rig.calibration_dir);
+  return rig.calibration_dir / name;
+}
+
+// Images of one step: from files (the given list, or images_dir/<step>) or captured.
+std::vector<Shot> step_images(CalibrateContext& c, const std::string& step, const std::vector<std::string>& files,
+                              const std::vector<double>& angles, app::Target target, bool led_on, double fill,
+                              double quantile) {
+  std::vector<Shot> shots;
+  std::vector<fs::path> paths;
+  if (!files.empty()) paths = expand_inputs(files, "--images");
+  else if (c.images_dir) paths = expand_inputs({(*c.images_dir / step).string()}, "--images");
+  if (!paths.empty()) {
+    const acq::HdrCalibration hdr = load_radiometry(c.rig);
+    for (const auto& p : paths) shots.push_back(load_shot(p, hdr));
+    return shots;
+  }
+  if (!c.session) throw UsageError("calibrate " + step + ": give --images or --capture");
+  c.session->stage->mount(target);
+  for (double a : angles)
+    shots.push_back(capture_shot(*c.session, step, fmt::format("{}_angle{:g}", step, a), a, led_on, fill, quantile));
+  return shots;
+}
+
+// ---- the steps ----
+
+struct IntrinsicsArgs {
+  std::vector<std::string> images;
+  std::string board = "9x6";
+  double square_mm = 20.0;
+  std::string out;
+  int views = 12;
+  std::string corner_method = "saddle-fit";
+};
+
+void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig) {
+  const calib::BoardSpec board = calib::BoardSpec::parse(a.board, a.square_mm);
+  calib::IntrinsicsOptions o;
+  o.corners.method = calib::corner_method_from_string(a.corner_method);
+  std::vector<calib::BoardImage> images;
+  std::vector<fs::path> inputs;
+  std::vector<fs::path> paths;
+  if (!a.images.empty()) paths = expand_inputs(a.images, "--images");
+  else if (c.images_dir) paths = expand_inputs({(*c.images_dir / "intrinsics").string()}, "--images");
+  if (!paths.empty()) {
+    for (const auto& p : paths) {
+      RawImage raw = read_raw_image(p);
+      images.push_back({p.filename().string(), std::move(raw.pixels), raw.bit_depth});
+      inputs.push_back(p);
+    }
+  } else {
+    if (!c.session) throw UsageError("calibrate intrinsics: give --images or --capture");
+    if (a.views < 3) throw UsageError("--views must be >= 3");
+    for (int k = 0; k < a.views; ++k) {
+      c.session->stage->show_board(k, a.views, board);
+      Shot s = capture_shot(*c.session, "intrinsics", fmt::format("view{:02d}", k), std::nullopt, false, 0.6, 0.99);
+      images.push_back({s.name, s.raw, s.bit_depth});
+      inputs.push_back(s.file);
+    }
+    c.session->stage->mount(Target::Sample);
+  }
+  if (have_rig) {
+    const auto& g = c.rig.geometry;
+    o.initial_focal_px = g.focal_length_mm / (g.pixel_size_um * 1e-3);
+    o.min_views = std::max(3, std::min(c.rig.tolerances.min_views, static_cast<int>(images.size())));
+  }
+  calib::IntrinsicsResult r = calib::calibrate_intrinsics(images, board, o);
+  r.provenance = calib::Provenance::make("intrinsics", inputs, provenance_devices(c));
+  const fs::path out = a.out.empty() ? out_file(c.rig, calib::kCameraFile) : fs::path(a.out);
+  r.save(out);
+  say(fmt::format("intrinsics: {} of {} views, RMS {:.3f} px (worst corner {:.3f} px), fx {:.2f} +- {:.2f}, fy {:.2f} +- {:.2f}, "
+                  "cx {:.2f} +- {:.2f}, cy {:.2f} +- {:.2f} px, dist [{:.4g}, {:.4g}, {:.4g}, {:.4g}, {:.4g}]",
+                  r.views_used, r.views.size(), r.rms_px, r.worst_px, r.camera.fx(), r.std.fx, r.camera.fy(), r.std.fy,
+                  r.camera.cx(), r.std.cx, r.camera.cy(), r.std.cy, r.camera.dist[0], r.camera.dist[1], r.camera.dist[2],
+                  r.camera.dist[3], r.camera.dist[4]));
+  for (const auto& v : r.views)
+    if (!v.used) say(fmt::format("  dropped {}: {}", v.name, v.reason));
+  say("  wrote " + out.string());
+}
+
+calib::SphereFit run_sphere(CalibrateContext& c, const std::vector<std::string>& files, const std::string& angles) {
+  const calib::CameraModel cam = calib::load_camera_model(c.rig.calibration_dir / calib::kCameraFile);
+  std::vector<Shot> shots = step_images(c, "sphere", files, parse_angles(angles, "--angles"), Target::WhiteReference, true,
+                                        0.7, 0.999);
+  std::vector<calib::SphereImage> images;
+  for (const auto& s : shots) images.push_back({s.name, s.rate});
+  calib::SphereOptions o;
+  o.radius_m = c.rig.geometry.sphere_radius_m;
+  calib::SphereFit fit = calib::fit_sphere(images, cam, o);
+  fit.provenance = calib::Provenance::make("sphere", inputs_of(shots), provenance_devices(c));
+  const fs::path out = out_file(c.rig, calib::kSphereFile);
+  fit.save(out);
+  const Vec3 sd = fit.centre_std_m();
+  say(fmt::format("sphere: centre ({:.2f}, {:.2f}, {:.2f}) mm +- ({:.3f}, {:.3f}, {:.3f}) mm in the camera frame; "
+                  "silhouette RMS {:.3f} px over {} edge points ({:.0f} % of the outline), edge width {:.2f} px",
+                  fit.centre_cam_m.x() * 1e3, fit.centre_cam_m.y() * 1e3, fit.centre_cam_m.z() * 1e3, sd.x() * 1e3,
+                  sd.y() * 1e3, sd.z() * 1e3, fit.rms_px, fit.edges_used, 100 * fit.coverage, fit.edge_width_px));
+  say("  wrote " + out.string());
+  return fit;
+}
+
+void run_light(CalibrateContext& c, const std::vector<std::string>& files, const std::string& angles) {
+  const calib::RigCalibration cal = calib::RigCalibration::load(c.rig);
+  cal.require({calib::kCameraFile, calib::kSphereFile});
+  std::vector<Shot> shots =
+      step_images(c, "light", files, parse_angles(angles, "--angles"), Target::GlossySphere, true, 0.8, 1.0);
+  std::vector<calib::HighlightImage> images;
+  for (const auto& s : shots) {
+    if (!s.table_angle_deg)
+      throw UsageError("calibrate light: " + s.file.string() + ": the table angle is not in the file name (e.g. light_angle-30.png)");
+    // Clipped pixels become +inf, and saturated_at = +inf leaves them out of the lobe fit.
+    calib::HighlightImage h{*s.table_angle_deg, s.name, s.rate};
+    for (std::size_t i = 0; i < s.saturated.size(); ++i)
+      if (s.saturated.values()[i]) h.pixels.values()[i] = std::numeric_limits<float>::infinity();
+    h.saturated_at = std::numeric_limits<double>::infinity();
+    images.push_back(std::move(h));
+  }
+  calib::LightCalibration l = calib::calibrate_light(images, cal.camera(), *cal.sphere(), c.rig.geometry);
+  l.provenance = calib::Provenance::make("light", inputs_of(shots), provenance_devices(c));
+  const fs::path out = out_file(c.rig, calib::kLightFile);
+  l.save(out);
+  say(fmt::format("light: {} of {} highlights, residual RMS {:.4f} deg (max {:.4f}); arm radius {:.2f} +- {:.2f} mm, "
+                  "height {:.2f} +- {:.2f} mm, zero {:.3f} +- {:.3f} deg, axis +- {:.3f} deg",
+                  l.used, l.highlights.size(), l.rms_deg, l.max_deg, l.model.arm_radius_m * 1e3, l.arm_radius_std_m * 1e3,
+                  l.model.arm_height_m * 1e3, l.arm_height_std_m * 1e3, l.model.zero_deg, l.zero_std_deg, l.axis_std_deg));
+  for (const auto& h : l.highlights)
+    if (!h.used) say(fmt::format("  not used {} ({:g} deg): {}", h.name, h.table_angle_deg, h.reason));
+  say("  wrote " + out.string());
+}
+
+void run_scale(CalibrateContext& c, const std::vector<std::string>& files, const std::string& angles) {
+  const calib::RigCalibration cal = calib::RigCalibration::load(c.rig);
+  cal.require({calib::kCameraFile, calib::kSphereFile, calib::kLightFile});
+  double albedo = c.albedo;
+  if (!(albedo > 0) && c.session) albedo = c.session->stage->known_albedo();
+  if (!(albedo > 0))
+    throw UsageError("calibrate scale: give --albedo, the reference sphere's certified albedo (e.g. 0.99)");
+  std::vector<Shot> shots =
+      step_images(c, "scale", files, parse_angles(angles, "--angles"), Target::WhiteReference, true, 0.7, 0.9999);
+  std::vector<calib::ReferenceImage> images;
+  for (const auto& s : shots) {
+    if (!s.table_angle_deg)
+      throw UsageError("calibrate scale: " + s.file.string() + ": the table angle is not in the file name (e.g. scale_angle0_exp20ms.png)");
+    if (!s.per_second)
+      throw UsageError("calibrate scale: " + s.file.string() + ": the exposure is not in the file name (e.g. _exp20ms)");
+    images.push_back({*s.table_angle_deg, s.name, s.rate, s.saturated});
+  }
+  calib::ScaleOptions o;
+  o.albedo = albedo;
+  // The LED profile changes the irradiance by ~0.3 % across the sphere, as much as the lens
+  // vignetting does: it is only fitted on flat-fielded images.
+  o.fit_profile = cal.has(calib::kFlatFile);
+  if (!o.fit_profile) say("  no flat.json: the LED profile is not fitted (taken as uniform); run `paintlab calibrate flat` first to fit it");
+  calib::ScaleCalibration sc = calib::calibrate_scale(images, cal.camera(), *cal.sphere(), cal.light()->model, o);
+  sc.provenance = calib::Provenance::make("scale", inputs_of(shots), provenance_devices(c));
+  say(fmt::format("scale: {:.6g} DN/s per (1/sr W/m^2 per W/sr) +- {:.3f} %, images agree within {:.3f} %, LED profile "
+                  "cos^n with n = {:.2f} +- {:.2f}; {} pixels, {} saturated ({:.3f} %)",
+                  sc.scale, 100 * sc.uncertainty_rel, 100 * sc.spread_rel, sc.profile_exponent, sc.profile_exponent_std,
+                  sc.pixels, sc.saturated, 100 * sc.saturated_frac));
+  if (sc.saturated_frac > c.rig.tolerances.saturated_frac)
+    throw CalibrationError(fmt::format("calibrate scale: the reference is saturated in {:.3f} % of its lit pixels (tolerance "
+                                       "{:.3f} %): shorten the exposure; scale.json was not written",
+                                       100 * sc.saturated_frac, 100 * c.rig.tolerances.saturated_frac));
+  const fs::path out = out_file(c.rig, calib::kScaleFile);
+  sc.save(out);
+  say("  wrote " + out.string());
+}
+
+struct StepArgs {
+  std::string rig;
+  std::vector<std::string> images;
+  bool capture = false;
+  std::string angles;
+  double albedo = 0.0;
+};
+
+}  // namespace
+
+void register_calibration_step(CalibrateStep step) {
+  auto& s = step_registry();
+  s.erase(std::remove_if(s.begin(), s.end(), [&](const CalibrateStep& x) { return x.name == step.name; }), s.end());
+  s.push_back(std::move(step));
+  std::stable_sort(s.begin(), s.end(), [](const CalibrateStep& a, const CalibrateStep& b) { return a.order < b.order; });
+}
+
+const std::vector<CalibrateStep>& calibration_steps() { return step_registry(); }
+
+void register_calibrate_commands(CLI::App& app) {
+  CLI::App* group = subcommand_group(app, "calibrate", "Calibrate the rig (writes the rig's calibration folder)");
+
+  // Context for one command: the rig, and the devices when capturing.
+  auto context = [](const std::string& rig_file, bool capture, double albedo,
+                    std::unique_ptr<CalibSession>* keep) -> CalibrateContext {
+    CalibrateContext c;
+    c.rig = RigConfig::load(rig_file);
+    c.albedo = albedo;
+    if (capture) {
+      *keep = std::make_unique<CalibSession>(open_calib_session(c.rig, albedo));
+      c.session = keep->get();
+    }
+    return c;
+  };
+
+  // --- intrinsics ---
+  {
+    auto a = std::make_shared<IntrinsicsArgs>();
+    auto common = std::make_shared<StepArgs>();
+    CLI::App* cmd = group->add_subcommand("intrinsics", "Camera intrinsics from chessboard views (writes camera.json)");
+    cmd->add_option("--rig", common->rig, "rig.toml (writes its calib/camera.json)");
+    cmd->add_option("--images", a->images, "chessboard photos or folders of them (8 or 16 bit)");
+    cmd->add_flag("--capture", common->capture, "capture the views through the rig's camera");
+    cmd->add_option("--board", a->board, "inner corners COLSxROWS")->capture_default_str();
+    cmd->add_option("--square", a->square_mm, "square side in mm")->capture_default_str();
+    cmd->add_option("--out", a->out, "output file (default: the rig's calib/camera.json)");
+    cmd->add_option("--views", a->views, "views to capture")->capture_default_str();
+    cmd->add_option("--corner-method", a->corner_method, "saddle-fit or opencv-subpix")->capture_default_str();
+    on_run(cmd, [a, common, context] {
+      if (common->rig.empty()) {
+        if (a->images.empty() || a->out.empty())
+          throw UsageError("calibrate intrinsics: without --rig give --images FILES... and --out FILE");
+        if (common->capture) throw UsageError("calibrate intrinsics: --capture needs --rig");
+        CalibrateContext c;
+        run_intrinsics(c, *a, false);
+        return kExitOk;
+      }
+      std::unique_ptr<CalibSession> keep;
+      CalibrateContext c = context(common->rig, common->capture, 0.0, &keep);
+      run_intrinsics(c, *a, true);
+      return kExitOk;
+    });
+    register_calibration_step({"intrinsics", 10, [a](CalibrateContext& c) {
+                                 IntrinsicsArgs args = *a;
+                                 args.images.clear();
+                                 args.out.clear();
+                                 run_intrinsics(c, args, true);
+                               }});
+  }
+
+  // --- sphere, light, scale ---
+  struct Geo {
+    const char* name;
+    const char* help;
+    const char* default_angles;
+    int order;
+    void (*run)(CalibrateContext&, const std::vector<std::string>&, const std::string&);
+  };
+  const Geo geos[] = {
+      {"sphere", "Sphere centre from its silhouette, LED beside it (writes sphere.json)", "90,270", 50,
+       [](CalibrateContext& c, const std::vector<std::string>& f, const std::string& a) { run_sphere(c, f, a); }},
+      {"light", "LED positions from highlights on a glossy sphere (writes light.json)", "-150:150:10", 60, &run_light},
+      {"scale", "Absolute BRDF scale from the white reference sphere (writes scale.json)", "-40,0,40", 70, &run_scale},
+  };
+  for (const Geo& g : geos) {
+    auto a = std::make_shared<StepArgs>();
+    a->angles = g.default_angles;
+    CLI::App* cmd = group->add_subcommand(g.name, g.help);
+    cmd->add_option("--rig", a->rig, "rig.toml")->required();
+    cmd->add_option("--images", a->images, "images or folders (angles and exposures in the names, see docs)");
+    cmd->add_flag("--capture", a->capture, "capture through the rig's devices");
+    cmd->add_option("--angles", a->angles, "table angles: a,b,c or START:STOP:STEP (deg)")->capture_default_str();
+    if (std::string(g.name) == "scale")
+      cmd->add_option("--albedo", a->albedo, "the reference sphere's certified albedo (simulated rigs: 0.99)");
+    auto run = g.run;
+    on_run(cmd, [a, run, context, name = std::string(g.name)] {
+      if (a->images.empty() == !a->capture) throw UsageError("calibrate " + name + ": give either --images or --capture");
+      std::unique_ptr<CalibSession> keep;
+      CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
+      run(c, a->images, a->angles);
+      return kExitOk;
+    });
+    const std::string angles = g.default_angles;
+    register_calibration_step({g.name, g.order, [run, angles](CalibrateContext& c) { run(c, {}, angles); }});
+  }
+
+  // --- all ---
+  {
+    auto a = std::make_shared<StepArgs>();
+    auto dir = std::make_shared<std::string>();
+    CLI::App* cmd = group->add_subcommand("all", "Every calibration step in order (writes the whole calibration folder)");
+    cmd->add_option("--rig", a->rig, "rig.toml")->required();
+    cmd->add_option("--images", *dir, "folder with one subfolder per step (intrinsics/, sphere/, light/, scale/, ...)");
+    cmd->add_flag("--capture", a->capture, "capture through the rig's devices");
+    cmd->add_option("--albedo", a->albedo, "the reference sphere's certified albedo (simulated rigs: 0.99)");
+    on_run(cmd, [a, dir, context] {
+      if (dir->empty() == !a->capture) throw UsageError("calibrate all: give either --images DIR or --capture");
+      std::unique_ptr<CalibSession> keep;
+      CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
+      if (!dir->empty()) c.images_dir = fs::path(*dir);
+      for (const auto& step : calibration_steps()) {
+        say(fmt::format("== {} ==", step.name));
+        step.run(c);
+      }
+      if (c.session) c.session->stage->mount(Target::Sample);
+      say("calibration complete: run `paintlab check --rig " + a->rig + "` to see whether the rig is fit to measure");
+      return kExitOk;
+    });
+  }
+}
+
+}  // namespace paintlab::app

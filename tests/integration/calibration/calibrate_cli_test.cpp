@@ -1,0 +1,64 @@
+// `paintlab calibrate intrinsics` on photos alone (DESIGN.md contract) and its usage errors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "paintlab/core/json.h"
+#include "test_util.h"
+
+namespace fs = std::filesystem;
+using namespace paintlab;
+
+namespace {
+const fs::path kPhotos = "/usr/share/doc/opencv-doc/examples/data";
+}
+
+TEST(CalibrateCli, IntrinsicsOnPhotosAloneWritesCameraJson) {
+  if (!fs::exists(kPhotos / "left01.jpg")) GTEST_SKIP() << "opencv-doc sample photos not installed";
+  test::TempDir dir;
+  std::string files;
+  for (int i = 1; i <= 14; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "left%02d.jpg", i);
+    if (fs::exists(kPhotos / name)) files += " " + (kPhotos / name).string();
+  }
+  auto r = test::run_paintlab("calibrate intrinsics --images" + files + " --board 9x6 --square 25 --out " +
+                              (dir / "camera.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("intrinsics: 13 of 13 views, RMS 0.15"));
+  Json j = read_json_file(dir / "camera.json");
+  EXPECT_EQ(j["K"].size(), 3u);
+  EXPECT_EQ(j["dist"].size(), 5u);
+  EXPECT_EQ(j["image_size"][0], 640);
+  EXPECT_LE(j["rms_px"].get<double>(), 0.25);
+  EXPECT_EQ(j["provenance"]["inputs"].size(), 13u);
+  EXPECT_EQ(j["provenance"]["inputs"][0]["sha256"].get<std::string>().size(), 64u);
+}
+
+TEST(CalibrateCli, UsageErrorsExitTwoAndSayWhat) {
+  test::TempDir dir;
+  auto r = test::run_paintlab("calibrate intrinsics --images " + (kPhotos / "left01.jpg").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("without --rig give --images FILES... and --out FILE"));
+  r = test::run_paintlab("calibrate intrinsics --images " + (kPhotos / "left01.jpg").string() + " --board 9by6 --out " +
+                         (dir / "c.json").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("--board '9by6': expected COLSxROWS"));
+  r = test::run_paintlab("calibrate intrinsics --images " + (dir / "nothing.png").string() + " --out " +
+                         (dir / "c.json").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("no such file or folder"));
+  EXPECT_FALSE(fs::exists(dir / "c.json"));
+}
+
+TEST(CalibrateCli, TooFewBoardsFailsWithTheDroppedViewsNamed) {
+  if (!fs::exists(kPhotos / "left01.jpg")) GTEST_SKIP() << "opencv-doc sample photos not installed";
+  test::TempDir dir;
+  // Two photos and one that shows no chessboard (OpenCV's left.jpg is not a 9x6 board view).
+  auto r = test::run_paintlab("calibrate intrinsics --images " + (kPhotos / "left01.jpg").string() + " " +
+                              (kPhotos / "left02.jpg").string() + " --board 9x6 --square 25 --out " +
+                              (dir / "c.json").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("only 2 usable chessboard views of 2 (at least 3 needed)"));
+  EXPECT_FALSE(fs::exists(dir / "c.json"));
+}

@@ -1,0 +1,121 @@
+// The technician's procedure on a simulated rig, through the real drivers (Modbus TCP
+// turntable, GigE Vision camera on 127.0.0.1): dark, response, flat, then
+// `paintlab calibrate all --capture`, then `paintlab check --capture` passes; after the
+// sphere is knocked out of place the check fails and says what to do.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fmt/format.h>
+
+#include "paintlab/core/json.h"
+#include "test_util.h"
+
+namespace fs = std::filesystem;
+using namespace paintlab;
+
+namespace {
+
+// A 640x480 camera with a 19.4 mm lens: the sphere is ~100 px in radius.
+std::string rig_toml(const fs::path& calib, const std::string& sphere_centre) {
+  return fmt::format(R"(name = "calib-cli-rig"
+calibration = "{calib}"
+
+[devices.turntable]
+kind = "sim"
+register_map = "oriental-az"
+
+[devices.light]
+kind = "sim"
+
+[devices.camera]
+kind = "sim"
+pixel_format = "Mono16"
+
+[geometry]
+sphere_radius_m = 0.04
+arm_radius_m = 0.6
+camera_distance_m = 1.2
+camera_height_m = 0.05
+focal_length_mm = 19.35
+pixel_size_um = 6.45
+image_width_px = 640
+image_height_px = 480
+
+[plan]
+angle_start_deg = 0
+angle_stop_deg = 40
+angle_step_deg = 20
+settle_s = 0.1
+dark_frames = 2
+[plan.bracket]
+min_ms = 0.5
+max_ms = 200
+count = 6
+
+[sim]
+seed = 7
+[sim.camera]
+fx_px = 3008.0
+fy_px = 3007.1
+cx_px = 320.8
+cy_px = 239.1
+dist = [-0.12, 0.3, 0.0002, -0.0001, 0.0]
+psf_sigma_px = 0.5
+[sim.led]
+arm_radius_m = 0.6015
+arm_height_m = 0.002
+zero_deg = 0.3
+[sim.sphere]
+centre_m = {centre}
+)",
+                     fmt::arg("calib", calib.string()), fmt::arg("centre", sphere_centre));
+}
+
+}  // namespace
+
+TEST(CalibrateSimCli, CalibrateAllThenCheckPassesAndAMovedSphereFails) {
+  test::TempDir dir;
+  const fs::path calib = dir / "calib";
+  test::write_text(dir / "rig.toml", rig_toml(calib, "[0.0005, -0.0003, 0.0002]"));
+  const std::string rig = (dir / "rig.toml").string();
+
+  // The radiometric steps first (their images linearise everything after).
+  auto r = test::run_paintlab("calibrate dark --rig " + rig + " --capture");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  r = test::run_paintlab("calibrate response --rig " + rig + " --capture");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  fs::create_directories(dir / "flat");
+  for (int k = 0; k < 2; ++k) {
+    r = test::run_paintlab(fmt::format("sim render --rig {} --scene flat --exposure 10 --frame {} --out {}", rig, k,
+                                       (dir / "flat" / fmt::format("flat{}.png", k)).string()));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  r = test::run_paintlab("calibrate flat --rig " + rig + " --images " + (dir / "flat").string() + " --exposures 0.01,0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+
+  r = test::run_paintlab("calibrate all --rig " + rig + " --capture", 500);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  std::printf("%s", r.out.c_str());
+  for (const char* step : {"intrinsics:", "sphere:", "light:", "scale:"}) EXPECT_THAT(r.out, ::testing::HasSubstr(step));
+  for (const char* f : {"camera.json", "sphere.json", "light.json", "scale.json"}) EXPECT_TRUE(fs::exists(calib / f)) << f;
+  Json cam = read_json_file(calib / "camera.json");
+  EXPECT_NEAR(cam["K"][0][0].get<double>(), 3008.0, 3008.0 * 0.001);
+  EXPECT_EQ(cam["provenance"]["devices"]["camera"], "PAINTLAB-SIM-1");
+
+  r = test::run_paintlab("check --rig " + rig + " --capture", 300);
+  std::printf("%s", r.out.c_str());
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("RIG OK"));
+  Json check = read_json_file(calib / "check.json");
+  EXPECT_TRUE(check["passed"].get<bool>());
+
+  // The sphere knocked 1 mm sideways: the same calibration folder, a changed world.
+  test::write_text(dir / "moved.toml", rig_toml(calib, "[0.0005, 0.0007, 0.0002]"));
+  r = test::run_paintlab("check --rig " + (dir / "moved.toml").string() + " --capture", 300);
+  std::printf("%s", r.out.c_str());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.out, ::testing::HasSubstr("RIG NOT FIT TO MEASURE"));
+  EXPECT_THAT(r.out, ::testing::HasSubstr("seat it in its holder"));
+  check = read_json_file(calib / "check.json");
+  EXPECT_FALSE(check["passed"].get<bool>());
+}
