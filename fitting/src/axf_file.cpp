@@ -122,6 +122,21 @@ void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const
               h5::join(gp, "colour_table_theta_h_rad"));
     w.doubles(g.get(), "colour_table_theta_i_rad", theta_samples(c.chi.theta_i_samples), {ni},
               h5::join(gp, "colour_table_theta_i_rad"));
+    if (paint.carpaint_stddev) {
+      const auto& sd = *paint.carpaint_stddev;
+      w.scalar(g.get(), "ior_std", sd.ior, h5::join(gp, "ior_std"));
+      w.scalar(g.get(), "diffuse_std", sd.diffuse, h5::join(gp, "diffuse_std"));
+      std::vector<double> cs, ss, fs;
+      for (const auto& l : sd.lobes) {
+        cs.push_back(l.coefficient);
+        ss.push_back(l.spread);
+        fs.push_back(l.f0);
+      }
+      const auto ns = static_cast<hsize_t>(sd.lobes.size());
+      w.doubles(g.get(), "ct_coeffs_std", cs, {ns}, h5::join(gp, "ct_coeffs_std"));
+      w.doubles(g.get(), "ct_spreads_std", ss, {ns}, h5::join(gp, "ct_spreads_std"));
+      w.doubles(g.get(), "ct_f0s_std", fs, {ns}, h5::join(gp, "ct_f0s_std"));
+    }
   }
 
   if (paint.cook_torrance) {
@@ -278,7 +293,8 @@ void check_conventions(hid_t root, const std::string& rp, const Problems& p) {
   }
 }
 
-std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::string& rp, const Problems& p) {
+std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::string& rp, const Problems& p,
+                                                     std::optional<AxfCarPaintStddev>* stddev) {
   const std::string gp = h5::join(rp, "carpaint");
   Handle g = h5::open_group(root, "carpaint", gp, p);
   if (!g) return std::nullopt;
@@ -353,6 +369,26 @@ std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::stri
   } else {
     h5::read_doubles(g.get(), "colour_table_theta_h_rad", h5::join(gp, "colour_table_theta_h_rad"), p);
     h5::read_doubles(g.get(), "colour_table_theta_i_rad", h5::join(gp, "colour_table_theta_i_rad"), p);
+  }
+  // Standard deviations: all five or none.
+  const std::vector<std::string> std_names = {"ior_std", "diffuse_std", "ct_coeffs_std", "ct_spreads_std",
+                                              "ct_f0s_std"};
+  int present = 0;
+  for (const auto& sn : std_names) present += h5::exists(g.get(), sn) ? 1 : 0;
+  if (present > 0 && n > 0) {
+    const std::string swhy = " (the shape of the parameter)";
+    auto is = read_checked(g.get(), "ior_std", gp, {}, Range::non_negative(), p, swhy);
+    auto ds = read_checked(g.get(), "diffuse_std", gp, {}, Range::non_negative(), p, swhy);
+    auto cs = read_checked(g.get(), "ct_coeffs_std", gp, {n}, Range::non_negative(), p, swhy);
+    auto ss = read_checked(g.get(), "ct_spreads_std", gp, {n}, Range::non_negative(), p, swhy);
+    auto fs = read_checked(g.get(), "ct_f0s_std", gp, {n}, Range::non_negative(), p, swhy);
+    if (is && ds && cs && ss && fs) {
+      AxfCarPaintStddev sd;
+      sd.ior = is->values[0];
+      sd.diffuse = ds->values[0];
+      for (hsize_t k = 0; k < n; ++k) sd.lobes.push_back({cs->values[k], ss->values[k], fs->values[k]});
+      *stddev = sd;
+    }
   }
   if (p.list->size() != before) return std::nullopt;
   return c;
@@ -550,7 +586,7 @@ AxfPaint read_paint(hid_t root, const std::string& rp, const Problems& p) {
   check_conventions(root, rp, p);
   const bool need_carpaint = paint.model == "axf-carpaint";
   const bool need_ct = paint.model == "cook-torrance";
-  if (need_carpaint || h5::exists(root, "carpaint")) paint.carpaint = read_carpaint(root, rp, p);
+  if (need_carpaint || h5::exists(root, "carpaint")) paint.carpaint = read_carpaint(root, rp, p, &paint.carpaint_stddev);
   if (need_ct || h5::exists(root, "cook_torrance")) paint.cook_torrance = read_cook_torrance(root, rp, p);
   if (h5::exists(root, "flakes")) {
     std::size_t lobes = 0;
@@ -678,6 +714,23 @@ AxfPaint axf_from_fit_json(const Json& fit, const std::string& where) {
     }
     a.cook_torrance->stddev = sd;
   }
+  if (a.carpaint && fit.contains("stddev")) {
+    const Json& s = fit["stddev"];
+    const std::string sw = where + ": key 'stddev'";
+    if (!s.is_object()) throw DataError(sw + ": expected an object");
+    AxfCarPaintStddev sd;
+    sd.ior = json_get<double>(s, "ior", sw);
+    sd.diffuse = json_get<double>(s, "diffuse", sw);
+    const Json lobes = json_get<Json>(s, "lobes", sw);
+    if (!lobes.is_array() || lobes.size() != a.carpaint->lobes.size())
+      throw DataError(sw + ".lobes: expected one entry per lobe (" + std::to_string(a.carpaint->lobes.size()) + ")");
+    for (std::size_t k = 0; k < lobes.size(); ++k) {
+      const std::string lw = sw + fmt::format(".lobes[{}]", k);
+      sd.lobes.push_back({json_get<double>(lobes[k], "coefficient", lw), json_get<double>(lobes[k], "spread", lw),
+                          json_get<double>(lobes[k], "f0", lw)});
+    }
+    a.carpaint_stddev = sd;
+  }
   if (fit.contains("residual")) {
     const Json& r = fit["residual"];
     const std::string rw = where + ": key 'residual'";
@@ -691,6 +744,21 @@ AxfPaint axf_from_fit_json(const Json& fit, const std::string& where) {
     a.fit_quality = q;
   }
   return a;
+}
+
+AxfPaint merge_axf(AxfPaint base, const AxfPaint& other) {
+  if (other.carpaint) {
+    if (base.carpaint) throw DataError("both paints hold an AxF car-paint form: give one fit per model");
+    base.carpaint = other.carpaint;
+    base.carpaint_stddev = other.carpaint_stddev;
+  }
+  if (other.cook_torrance) {
+    if (base.cook_torrance) throw DataError("both paints hold a Cook-Torrance form: give one fit per model");
+    base.cook_torrance = other.cook_torrance;
+  }
+  if (!base.flakes) base.flakes = other.flakes;
+  if (!base.fit_quality) base.fit_quality = other.fit_quality;
+  return base;
 }
 
 void check_axf_paint(const AxfPaint& paint) {
@@ -838,9 +906,16 @@ std::string describe_axf(const AxfPaint& a) {
     const auto& c = *a.carpaint;
     s += fmt::format("  carpaint: clear-coat ior {:.4g}, diffuse {:.4g}, colour table {} x {} (scale {:.4g})\n", c.ior,
                      c.diffuse, c.chi.theta_h_samples, c.chi.theta_i_samples, c.chi.scale);
-    for (std::size_t k = 0; k < c.lobes.size(); ++k)
-      s += fmt::format("    lobe {}: coefficient {:.5g}  spread {:.5g}  F0 {:.5g}\n", k + 1, c.lobes[k].coefficient,
+    const auto* sd = a.carpaint_stddev ? &*a.carpaint_stddev : nullptr;
+    if (sd) s += fmt::format("    standard deviations: ior {:.2g}, diffuse {:.2g}\n", sd->ior, sd->diffuse);
+    for (std::size_t k = 0; k < c.lobes.size(); ++k) {
+      s += fmt::format("    lobe {}: coefficient {:.5g}  spread {:.5g}  F0 {:.5g}", k + 1, c.lobes[k].coefficient,
                        c.lobes[k].spread, c.lobes[k].f0);
+      if (sd && k < sd->lobes.size())
+        s += fmt::format("  (+- {:.2g}, {:.2g}, {:.2g})", sd->lobes[k].coefficient, sd->lobes[k].spread,
+                         sd->lobes[k].f0);
+      s += "\n";
+    }
   }
   if (a.cook_torrance) {
     const auto& ct = *a.cook_torrance;

@@ -61,6 +61,7 @@ AxfPaint full_paint() {
   p.name = "silver-fit.01";
   p.model = "axf-carpaint";
   p.carpaint = sample_carpaint();
+  p.carpaint_stddev = AxfCarPaintStddev{0.01, 0.002, {{1e-3, 2e-3, 0}, {5e-4, 1e-3, 0}, {4e-3, 1e-4, 0}}};
   p.cook_torrance = sample_ct(true);
   brdf::FlakeSpec f;
   f.density = 0.7;
@@ -174,6 +175,8 @@ TEST(AxfFile, RoundTripEveryField) {
   EXPECT_EQ(back.model, p.model);
   ASSERT_TRUE(back.carpaint);
   EXPECT_EQ(*back.carpaint, *p.carpaint);
+  ASSERT_TRUE(back.carpaint_stddev);
+  EXPECT_EQ(*back.carpaint_stddev, *p.carpaint_stddev);
   ASSERT_TRUE(back.cook_torrance);
   EXPECT_EQ(*back.cook_torrance, *p.cook_torrance);
   ASSERT_TRUE(back.cook_torrance->stddev);
@@ -307,6 +310,10 @@ TEST(AxfFile, ValidatorNamesTheFieldOfEveryDamage) {
        "/carpaint/colour_table: value -0.1 at index [1, 2, 2] out of range [0, inf)"},
       {"not finite", [](hid_t f) { overwrite_doubles(f, "/cook_torrance/kd", {0.1, NAN, 0.1}); },
        "/cook_torrance/kd: value nan at index 1 is not finite"},
+      {"carpaint stddev shape", [](hid_t f) { replace_doubles(f, "/carpaint/ct_spreads_std", {0.1, 0.1}, {2}); },
+       "/carpaint/ct_spreads_std: wrong shape [2], expected [3] (the shape of the parameter)"},
+      {"missing carpaint stddev", [](hid_t f) { H5Ldelete(f, "/carpaint/ior_std", H5P_DEFAULT); },
+       "/carpaint/ior_std: missing dataset"},
       {"negative stddev", [](hid_t f) { overwrite_doubles(f, "/cook_torrance/m_std", {0.1, -0.1, 0.1}); },
        "/cook_torrance/m_std: value -0.1 at index 1 out of range [0, inf)"},
       {"wrong type",
@@ -425,6 +432,31 @@ TEST(AxfFile, FromFitJsonCarriesStddevResidualAndConvergence) {
   Json bad = j;
   bad["stddev"]["lobes"].erase(1);
   EXPECT_THROW(axf_from_fit_json(bad, "fit.json"), DataError);
+}
+
+TEST(AxfFile, CarPaintFitJsonAndMergeWithACookTorranceFit) {
+  Json j = brdf::to_json(brdf::PaintSpec{"panel-17", sample_carpaint(), std::nullopt, {}});
+  j["stddev"] = {{"ior", 0.02},
+                 {"diffuse", 0.001},
+                 {"lobes", Json::array({{{"coefficient", 1e-3}, {"spread", 2e-3}, {"f0", 0.0}},
+                                        {{"coefficient", 2e-3}, {"spread", 3e-3}, {"f0", 0.0}},
+                                        {{"coefficient", 3e-3}, {"spread", 4e-3}, {"f0", 0.0}}})}};
+  j["residual"] = {{"log_rms", 0.04}, {"bins_used", 999}};
+  const AxfPaint cp = axf_from_fit_json(j, "axf-fit.json");
+  EXPECT_EQ(cp.model, "axf-carpaint");
+  ASSERT_TRUE(cp.carpaint && cp.carpaint_stddev);
+  EXPECT_EQ(*cp.carpaint, sample_carpaint());
+  EXPECT_DOUBLE_EQ(cp.carpaint_stddev->ior, 0.02);
+  EXPECT_DOUBLE_EQ(cp.carpaint_stddev->lobes[2].spread, 4e-3);
+
+  const AxfPaint merged = merge_axf(cp, ct_only_paint());
+  EXPECT_EQ(merged.model, "axf-carpaint");
+  ASSERT_TRUE(merged.cook_torrance);
+  EXPECT_EQ(*merged.cook_torrance, *ct_only_paint().cook_torrance);
+  EXPECT_THROW(merge_axf(cp, cp), DataError);
+  test::TempDir tmp;
+  write_axf_file(tmp / "m.axf.h5", merged);
+  EXPECT_EQ(read_axf_file(tmp / "m.axf.h5").carpaint_stddev, cp.carpaint_stddev);
 }
 
 TEST(AxfFile, PaintsWithoutAnAxfFormAreRefused) {

@@ -36,6 +36,15 @@ struct AxfCookTorrance {
   bool operator==(const AxfCookTorrance& o) const;
 };
 
+// Standard deviations of an AxF car-paint fit (the shape of AxfCarPaintParams' scalars and
+// lobes; the colour table has none).
+struct AxfCarPaintStddev {
+  double ior = 0;
+  double diffuse = 0;
+  std::vector<brdf::AxfLobe> lobes;  // coefficient, spread, f0 hold standard deviations
+  bool operator==(const AxfCarPaintStddev&) const = default;
+};
+
 // How well the fit matches the measurement (fit.json "residual").
 struct AxfFitQuality {
   double log_rms = 0;            // RMS of the log residuals over the bins used, >= 0
@@ -63,6 +72,7 @@ struct AxfPaint {
   std::string name;    // [a-z0-9._-]+
   std::string model;   // the paint's model: "axf-carpaint" or "cook-torrance"
   std::optional<brdf::AxfCarPaintParams> carpaint;   // required when model == "axf-carpaint"
+  std::optional<AxfCarPaintStddev> carpaint_stddev;  // only with carpaint
   std::optional<AxfCookTorrance> cook_torrance;      // required when model == "cook-torrance"
   std::optional<brdf::FlakeSpec> flakes;
   std::optional<AxfFitQuality> fit_quality;
@@ -76,9 +86,13 @@ struct AxfPaint {
 // The AxF-like form of a paint file's paint. Cook-torrance and axf-carpaint paints only;
 // DataError for the others ("layered-pearlescent paints have no AxF-like form: fit it").
 AxfPaint axf_from_paint(const brdf::PaintSpec& spec);
-// The AxF-like form of a fit.json object (DESIGN.md "fit" plus "stddev", "summary").
-// DataError naming `where` and the key.
+// The AxF-like form of a fit.json object (DESIGN.md "fit" plus "stddev", "summary") of
+// either model. DataError naming `where` and the key.
 AxfPaint axf_from_fit_json(const Json& fit, const std::string& where);
+// Adds the paint form of `other` that `base` lacks (a Cook-Torrance fit beside an AxF
+// car-paint fit of the same measurement, or the other way round). DataError when both
+// hold the same form.
+AxfPaint merge_axf(AxfPaint base, const AxfPaint& other);
 
 // Writes the file atomically (temp file + rename: never a partial file). Checks the paint
 // first (DataError naming the field, nothing written). Fills exported_utc and
