@@ -76,7 +76,7 @@ struct ReprojectionCost {
 // adjustment from its result converges fully; the covariance of the intrinsics is then
 // taken with the poses marginalised (the full normal matrix, pseudo-inverted by SVD) and
 // scaled by the residual variance.
-void refine(const std::vector<const CornerView*>& views, const BoardSpec& board, Solution* s) {
+void refine(const std::vector<const CornerView*>& views, const BoardSpec& board, bool fix_k3, Solution* s) {
   double in[9] = {s->K.at<double>(0, 0), s->K.at<double>(1, 1), s->K.at<double>(0, 2), s->K.at<double>(1, 2),
                   s->D.at<double>(0),    s->D.at<double>(1),    s->D.at<double>(2),    s->D.at<double>(3),
                   s->D.at<double>(4)};
@@ -94,6 +94,10 @@ void refine(const std::vector<const CornerView*>& views, const BoardSpec& board,
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 9, 6>(new ReprojectionCost{
                                    obj[i].x(), obj[i].y(), views[k]->corners_px[i].x(), views[k]->corners_px[i].y()}),
                                nullptr, in, poses[k].data());
+  if (fix_k3) {
+    in[8] = 0.0;
+    problem.SetManifold(in, new ceres::SubsetManifold(9, {8}));
+  }
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_SCHUR;
   so.max_num_iterations = 500;
@@ -132,10 +136,12 @@ void refine(const std::vector<const CornerView*>& views, const BoardSpec& board,
     if (scale(c) > 0) J.col(c) /= scale(c);
   const Eigen::MatrixXd JtJ = J.transpose() * J;
   const Eigen::MatrixXd inv = JtJ.completeOrthogonalDecomposition().pseudoInverse();
-  const double dof = std::max(1.0, 2.0 * n - 9.0 - 6.0 * static_cast<double>(views.size()));
+  // With k3 held, the intrinsics block has 8 columns (k3, the last, is not a parameter).
+  const int ni = fix_k3 ? 8 : 9;
+  const double dof = std::max(1.0, 2.0 * n - ni - 6.0 * static_cast<double>(views.size()));
   const double s2 = 2.0 * cost / dof;
   s->std_intr = cv::Mat::zeros(18, 1, CV_64F);
-  for (int i = 0; i < 9; ++i)
+  for (int i = 0; i < ni; ++i)
     s->std_intr.at<double>(i) = scale(i) > 0 ? std::sqrt(std::max(0.0, inv(i, i) * s2)) / scale(i) : 0.0;
 }
 
@@ -152,6 +158,7 @@ Solution solve(const std::vector<const CornerView*>& views, const BoardSpec& boa
     s.D = cv::Mat::zeros(5, 1, CV_64F);
     flags |= cv::CALIB_USE_INTRINSIC_GUESS;
   }
+  if (options.fix_k3) flags |= cv::CALIB_FIX_K3;
   cv::Mat std_extr, per_view;
   try {
     s.rms = cv::calibrateCamera(obj, img, size, s.K, s.D, s.rvecs, s.tvecs, s.std_intr, std_extr, per_view, flags,
@@ -160,7 +167,7 @@ Solution solve(const std::vector<const CornerView*>& views, const BoardSpec& boa
     throw CalibrationError(std::string("intrinsics: OpenCV calibrateCamera failed: ") + e.what());
   }
   if (!std::isfinite(s.rms)) throw CalibrationError("intrinsics: the camera solve diverged (RMS not finite)");
-  refine(views, board, &s);
+  refine(views, board, options.fix_k3, &s);
   return s;
 }
 

@@ -43,6 +43,9 @@ struct IntrinsicsOptions {
   double max_fallback_frac = 0.25;
   int min_views = 3;             // fewer usable views: CalibrationError
   double initial_focal_px = 0;   // > 0: start from this focal length (narrow lenses), else OpenCV's guess
+  // Keep k3 = 0: over a narrow field of view k3 r^6 is unobservable and only trades with the
+  // principal point and k2 (the file still holds five coefficients).
+  bool fix_k3 = false;
 
   void check() const;  // UsageError naming the first violated rule
 };
