@@ -112,7 +112,7 @@ TEST(IntrinsicsSynthetic, FocalPrincipalPointAndRmsAgainstTruth) {
   auto poses = test_poses(sc.board);
   std::vector<BoardImage> images;
   std::vector<std::vector<Vec2>> truth;
-  const NormalizedMap map(sc.camera, 3);
+  const NormalizedMap map(sc.camera, 2);
   for (std::size_t v = 0; v < poses.size(); ++v) {
     images.push_back({"view" + std::to_string(v), render_chessboard(sc, poses[v], test::seed() + 100 + v, &map), sc.bit_depth});
     truth.push_back(true_corners(sc.camera, sc.board, poses[v]));

@@ -35,7 +35,7 @@ TEST(LightSim, LedCircleFromHighlightsMatchesTheTruth) {
   const sim::SimPaint ball = glossy_black();
   std::vector<HighlightImage> images;
   // Both sides of the camera: the arm radius is seen through parallax only (light.h).
-  for (double a = -150; a <= 150.0; a += 20.0)
+  for (double a = -150; a <= 150.0; a += 30.0)
     images.push_back({a, "glossy-" + std::to_string(static_cast<int>(a)),
                       expose_linear(world, world.render_with(ball, a, true), 0.8, nullptr, nullptr, 1.0)});
   const SphereFit sphere = truth_sphere(world);
