@@ -377,7 +377,13 @@ void register_calibrate_commands(CLI::App& app) {
         step.run(c);
       }
       if (c.session) c.session->stage->mount(Target::Sample);
-      say("calibration complete: run `paintlab check --rig " + a->rig + "` to see whether the rig is fit to measure");
+      // Steps not registered with `all` (or that write nothing) leave their file missing.
+      std::string missing;
+      for (const std::string& f : calib::standard_files())
+        if (!fs::exists(c.rig.calibration_dir / f))
+          missing += fmt::format("\n  {}: run `paintlab calibrate {} --rig {}`", f, calib::calibrate_step_for(f), a->rig);
+      if (!missing.empty()) say("still missing from " + c.rig.calibration_dir.string() + ":" + missing);
+      say("calibration done: run `paintlab check --rig " + a->rig + "` to see whether the rig is fit to measure");
       return kExitOk;
     });
   }
