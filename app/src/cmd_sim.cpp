@@ -79,6 +79,15 @@ int run_render(const RenderArgs& a) {
     radiance = sim::render_chessboard(world.camera(), board, poses.back(), light, 16, channels, a.threads);
     what = fmt::format("{}x{} chessboard of {:g} mm squares, view {}", board.cols, board.rows, board.square_m * 1e3,
                        a.view);
+  } else if (a.scene == "charuco") {
+    sim::CharucoBoard board;
+    auto poses = sim::charuco_poses(world.camera(), board, a.view + 1, world.config().seed);
+    double g = world.sensor().electrons_per_s_per_radiance(world.camera().width() / 2, world.camera().height() / 2);
+    sim::PlaneLighting light;
+    light.irradiance_w_m2 = 0.5 * world.config().sensor.full_well_e / (g * exposure_s) * kPi / board.white_albedo;
+    radiance = sim::render_charuco(world.camera(), board, poses.back(), light, 16, channels, a.threads);
+    what = fmt::format("{}x{} ChArUco board of {:g} mm squares, {:g} mm DICT_6X6_250 markers, view {}",
+                       board.squares_x, board.squares_y, board.square_m * 1e3, board.marker_m * 1e3, a.view);
   } else if (a.scene == "flat") {
     double g = world.sensor().electrons_per_s_per_radiance(world.camera().width() / 2, world.camera().height() / 2);
     double level = 0.5 * world.config().sensor.full_well_e / (g * exposure_s);
@@ -139,10 +148,10 @@ void register_sim_commands(CLI::App& app) {
   render->add_option("--exposure", args->exposure_ms, "exposure time, ms (PNG output; sets the target lighting)");
   render->add_option("--gain-db", args->gain_db, "camera gain, dB (PNG output)");
   render->add_option("--out", args->out, "output file: .exr (radiance) or .png (raw)")->required();
-  render->add_option("--scene", args->scene, "sphere, white (reference sphere), chessboard, flat, dark")
-      ->check(CLI::IsMember({"sphere", "white", "chessboard", "flat", "dark"}));
+  render->add_option("--scene", args->scene, "sphere, white (reference sphere), chessboard, charuco, flat, dark")
+      ->check(CLI::IsMember({"sphere", "white", "chessboard", "charuco", "flat", "dark"}));
   render->add_option("--albedo", args->albedo, "albedo of the white reference sphere")->check(CLI::Range(0.0, 1.0));
-  render->add_option("--view", args->view, "which generated chessboard pose (0, 1, ...)")->check(CLI::Range(0, 99));
+  render->add_option("--view", args->view, "which generated chessboard or ChArUco pose (0, 1, ...)")->check(CLI::Range(0, 99));
   render->add_option("--frame", args->frame, "noise realisation (frame index) of the PNG");
   render->add_option("--threads", args->threads, "threads, 0 = all cores");
   render->add_flag("--rgb", args->rgb, "colour output (default: the monochrome camera's mix)");

@@ -234,13 +234,15 @@ std::vector<Vec2> project_points(const CameraModel& camera, const Rigid3& cam_fr
   return out;
 }
 
-std::vector<Rigid3> chessboard_poses(const CameraModel& camera, const Chessboard& board, int count,
-                                     std::uint64_t seed) {
-  board.check();
+namespace {
+
+// Poses of a planar target whose printed area is [lo, hi] (board frame, z = 0); `what`
+// names the target in the error.
+std::vector<Rigid3> planar_poses(const CameraModel& camera, const Vec2& lo, const Vec2& hi, int count,
+                                 std::uint64_t seed, const std::string& what) {
   if (count < 1) return {};
   const auto& t = camera.truth();
   const double w = camera.width(), h = camera.height();
-  const Vec2 lo = board.outline_lo(), hi = board.outline_hi();
   const double board_w = hi.x() - lo.x();
   const Vec3 centre_board(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), 0.0);
   const double margin_px = 0.02 * std::min(w, h);
@@ -290,11 +292,31 @@ std::vector<Rigid3> chessboard_poses(const CameraModel& camera, const Chessboard
       }
     }
     if (!found)
-      throw DataError("chessboard_poses: a " + std::to_string(board.cols) + "x" + std::to_string(board.rows) +
-                      " board does not fit the " + std::to_string(camera.width()) + "x" +
+      throw DataError(what + " does not fit the " + std::to_string(camera.width()) + "x" +
                       std::to_string(camera.height()) + " image at any tried pose");
   }
   return poses;
+}
+
+}  // namespace
+
+std::vector<Rigid3> chessboard_poses(const CameraModel& camera, const Chessboard& board, int count,
+                                     std::uint64_t seed) {
+  board.check();
+  return planar_poses(camera, board.outline_lo(), board.outline_hi(), count, seed,
+                      "chessboard_poses: a " + std::to_string(board.cols) + "x" + std::to_string(board.rows) +
+                          " board");
+}
+
+std::vector<Rigid3> charuco_poses(const CameraModel& camera, const CharucoBoard& board, int count,
+                                  std::uint64_t seed) {
+  board.check();
+  const Vec2 lo = Vec2::Constant(-board.margin_squares * board.square_m);
+  const Vec2 hi((board.squares_x + board.margin_squares) * board.square_m,
+                (board.squares_y + board.margin_squares) * board.square_m);
+  return planar_poses(camera, lo, hi, count, seed,
+                      "charuco_poses: a " + std::to_string(board.squares_x) + "x" +
+                          std::to_string(board.squares_y) + " ChArUco board");
 }
 
 ImageF uniform_field(const CameraModel& camera, double radiance, int channels) {

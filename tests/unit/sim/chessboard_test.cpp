@@ -220,13 +220,24 @@ TEST(Charuco, OpenCvDetectsTheRenderedBoard) {
   std::vector<int> ch_ids;
   int n = cv::aruco::interpolateCornersCharuco(marker_corners, ids, img8, cv_board, ch_corners, ch_ids);
   ASSERT_EQ(n, (b.squares_x - 1) * (b.squares_y - 1));
-  // OpenCV 4.6's interpolateCornersCharuco returns corners shifted by about +0.5 px in x and
-  // y (its cornerSubPix call is wrapped in a -0.5/+0.5 shift: opencv/opencv#25539, fixed
-  // upstream in 2026), so refine its corners again with cornerSubPix, as the chessboard test does.
+  auto truth = sim::project_points(cam, pose, b.corners());
+  // OpenCV 4.6's interpolateCornersCharuco (opencv_contrib aruco) returns corners shifted by
+  // about +0.5 px in x and y: it wraps its cornerSubPix call in a -0.5/+0.5 shift (added by
+  // opencv_contrib#3024; the same bias in the later objdetect CharucoDetector is
+  // opencv/opencv#25539, fixed by opencv/opencv#28380). Print it, then refine its corners
+  // again with cornerSubPix, as the chessboard test does.
+  Vec2 raw_offset = Vec2::Zero();
+  for (int i = 0; i < n; ++i) {
+    const auto& c = ch_corners[static_cast<std::size_t>(i)];
+    Vec2 dv = Vec2(c.x, c.y) - truth[static_cast<std::size_t>(ch_ids[static_cast<std::size_t>(i)])];
+    ASSERT_LT(dv.norm(), 1.5) << "corner id " << ch_ids[static_cast<std::size_t>(i)];
+    raw_offset += dv / n;
+  }
+  std::printf("interpolateCornersCharuco corners vs projection: mean offset (%+.3f, %+.3f) px\n", raw_offset.x(),
+              raw_offset.y());
   cv::Mat f32 = f * (1.0 / peak);
   cv::cornerSubPix(f32, ch_corners, cv::Size(5, 5), cv::Size(-1, -1),
                    cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
-  auto truth = sim::project_points(cam, pose, b.corners());
   double sum = 0, worst = 0;
   for (int i = 0; i < n; ++i) {
     const Vec2 c(ch_corners[static_cast<std::size_t>(i)].x, ch_corners[static_cast<std::size_t>(i)].y);
@@ -238,4 +249,46 @@ TEST(Charuco, OpenCvDetectsTheRenderedBoard) {
   std::printf("rendered ChArUco corners vs projection: %d corners, mean %.4f px, worst %.4f px\n", n, sum / n, worst);
   EXPECT_LT(sum / n, 0.08);
   EXPECT_LT(worst, 0.2);
+}
+
+TEST(Charuco, PosesKeepTheBoardInsideAndOpenCvFindsIt) {
+  sim::CameraTruth t = camera_truth();
+  t.width_px = 640;
+  t.height_px = 480;
+  t.fx_px = 2 * t.fx_px;
+  t.fy_px = 2 * t.fy_px;
+  t.cx_px = 2 * t.cx_px + 0.5;
+  t.cy_px = 2 * t.cy_px + 0.5;
+  sim::CameraModel cam(t);
+  sim::CharucoBoard b;
+  b.squares_x = 5;
+  b.squares_y = 4;
+  b.marker_m = 0.03;
+  b.dictionary = cv::aruco::DICT_4X4_50;  // 6 x 6 cells of >= 4 px at 30 % of the image width
+  auto poses = sim::charuco_poses(cam, b, 4, 7);
+  auto again = sim::charuco_poses(cam, b, 4, 7);
+  ASSERT_EQ(poses.size(), 4u);
+  auto dict = cv::aruco::getPredefinedDictionary(b.dictionary);
+  int detected = 0;
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    EXPECT_TRUE(poses[k].rotation.isApprox(again[k].rotation) && poses[k].translation == again[k].translation);
+    // The printed area's corners are inside the image.
+    const double lo = -b.margin_squares * b.square_m;
+    const double hx = (b.squares_x + b.margin_squares) * b.square_m, hy = (b.squares_y + b.margin_squares) * b.square_m;
+    for (const Vec2& p : sim::project_points(cam, poses[k], {Vec3(lo, lo, 0), Vec3(hx, lo, 0), Vec3(lo, hy, 0),
+                                                              Vec3(hx, hy, 0)}))
+      EXPECT_TRUE(p.x() > 0 && p.y() > 0 && p.x() < 639 && p.y() < 479) << "view " << k;
+    ImageF rad = sim::render_charuco(cam, b, poses[k], {10.0, 0.02});
+    cv::Mat f(rad.height(), rad.width(), CV_32F, rad.data());
+    cv::Mat img8;
+    f.convertTo(img8, CV_8U, 250.0 / (b.white_albedo * 10.0 / kPi));
+    std::vector<std::vector<cv::Point2f>> marker_corners;
+    std::vector<int> ids;
+    cv::aruco::detectMarkers(img8, dict, marker_corners, ids);
+    // Every detected id belongs to the board; most views show all markers.
+    for (int id : ids) EXPECT_LT(id, b.marker_count());
+    detected += static_cast<int>(ids.size()) == b.marker_count();
+    std::printf("view %zu: %zu of %d markers\n", k, ids.size(), b.marker_count());
+  }
+  EXPECT_GE(detected, 3);
 }

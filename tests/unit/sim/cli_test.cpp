@@ -69,7 +69,7 @@ TEST(SimCli, RendersRadianceAndRawFrames) {
   std::nth_element(sorted.begin(), sorted.begin() + 100, sorted.end());
   EXPECT_NEAR(sorted[100], 64 * 16, 20 * 16);
 
-  for (const char* scene : {"chessboard", "flat", "dark", "white"}) {
+  for (const char* scene : {"chessboard", "charuco", "flat", "dark", "white"}) {
     r = test::run_paintlab("sim render --rig " + (dir / "rig.toml").string() + " --scene " + scene +
                            " --exposure 10 --rgb --out " + (dir / (std::string(scene) + ".exr")).string());
     ASSERT_EQ(r.exit_code, 0) << scene << ": " << r.err;

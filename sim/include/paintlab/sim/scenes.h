@@ -1,9 +1,9 @@
 #pragma once
 // Calibration scenes rendered through the simulated camera (same intrinsics, distortion
 // and pixel grid as the sphere, so Sensor::expose() turns them into raw frames): a planar
-// chessboard at a pose with sub-pixel accurate edges, a dark frame and a uniform field
-// for flat fielding. The white reference sphere is SimWorld::render_with() with a
-// brdf::Lambertian paint.
+// chessboard or ChArUco board at a pose with sub-pixel accurate edges, a dark frame and a
+// uniform field for flat fielding. The white reference sphere is SimWorld::render_with()
+// with a brdf::Lambertian paint.
 #include <cstdint>
 #include <vector>
 
@@ -83,6 +83,9 @@ std::vector<Vec2> project_points(const CameraModel& camera, const Rigid3& cam_fr
 // cannot fit the image at all.
 std::vector<Rigid3> chessboard_poses(const CameraModel& camera, const Chessboard& board, int count,
                                      std::uint64_t seed);
+// The same for a ChArUco board (its printed area, squares and margin).
+std::vector<Rigid3> charuco_poses(const CameraModel& camera, const CharucoBoard& board, int count,
+                                  std::uint64_t seed);
 
 // A uniform scene radiance over the whole image (a diffuser in front of the lens: flat field).
 ImageF uniform_field(const CameraModel& camera, double radiance, int channels = 1);
