@@ -30,9 +30,14 @@ constexpr double kMinModelValue = 1e-30;
 
 // One bin of the achromatic stage: directions at the mean coordinates, the mean of the
 // channels, its log target and weight.
+struct AchroMember {
+  brdf::Vec3 wi = brdf::Vec3::UnitZ(), wo = brdf::Vec3::UnitZ();
+  double weight = 1.0;
+};
 struct AchroBin {
   const FitBin* src = nullptr;
-  brdf::Vec3 wi = brdf::Vec3::UnitZ(), wo = brdf::Vec3::UnitZ();
+  const AchroMember* members = nullptr;  // the fit point's member bins (FitData::members)
+  std::uint32_t member_count = 0;
   double value = 0;      // mean of R, G, B
   double target = 0;     // log(value) + delta-method correction
   double inv_sigma = 0;  // 1 / sigma of log(value)
@@ -63,12 +68,16 @@ struct AxfChunk {
     using std::log;
     for (std::size_t q = 0; q < bins->size(); ++q) {
       const AchroBin& b = *(*bins)[q];
-      const brdf::CoatGeometry<T> g = brdf::coat_geometry<T>(p[0], b.wi, b.wo);
-      T f = p[1] * T(kInvPi);
-      for (int k = 0; k < K; ++k)
-        f += p[2 + 2 * k] *
-             brdf::ct_lobe<T>(p[3 + 2 * k], f0[k], g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
-      f = f * g.transmittance;
+      T f(0.0);
+      for (std::uint32_t mi = 0; mi < b.member_count; ++mi) {
+        const AchroMember& m = b.members[mi];
+        const brdf::CoatGeometry<T> g = brdf::coat_geometry<T>(p[0], m.wi, m.wo);
+        T fm = p[1] * T(kInvPi);
+        for (int k = 0; k < K; ++k)
+          fm += p[2 + 2 * k] *
+                brdf::ct_lobe<T>(p[3 + 2 * k], f0[k], g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
+        f += T(m.weight) * fm * g.transmittance;
+      }
       if (!(f > T(kMinModelValue))) return false;
       residuals[q] = (log(f) - T(b.target)) * T(b.inv_sigma);
     }
@@ -77,14 +86,21 @@ struct AxfChunk {
 };
 
 // The achromatic model at one bin in doubles (for starts, chi and reports).
-double achromatic(const AxfVector& p, int K, const AchroBin& b, brdf::CoatGeometry<double>* geometry = nullptr) {
-  const brdf::CoatGeometry<double> g = brdf::coat_geometry<double>(p.eta(), b.wi, b.wo);
+// The achromatic model at one member bin in doubles (for starts, chi and reports).
+double achromatic(const AxfVector& p, int K, const AchroMember& m, brdf::CoatGeometry<double>* geometry = nullptr) {
+  const brdf::CoatGeometry<double> g = brdf::coat_geometry<double>(p.eta(), m.wi, m.wo);
   if (geometry) *geometry = g;
   double f = p.a() * kInvPi;
   for (int k = 0; k < K; ++k)
     f += p.s(k) *
          brdf::ct_lobe<double>(p.alpha(k), p.f0[k], g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
   return f * g.transmittance;
+}
+// ... averaged over a fit point's members.
+double achromatic(const AxfVector& p, int K, const AchroBin& b) {
+  double f = 0;
+  for (std::uint32_t mi = 0; mi < b.member_count; ++mi) f += b.members[mi].weight * achromatic(p, K, b.members[mi]);
+  return f;
 }
 
 struct Problem {
@@ -165,11 +181,15 @@ std::vector<Start> grid_starts(const std::vector<const AchroBin*>& bins, int K, 
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(G + 1, G + 1);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(G + 1), phi(G + 1);
   for (const AchroBin* b : bins) {
-    const brdf::CoatGeometry<double> g = brdf::coat_geometry<double>(o.ior_start, b->wi, b->wo);
-    phi[0] = g.transmittance * kInvPi;
-    for (int k = 0; k < G; ++k)
-      phi[1 + k] = g.transmittance *
-                   brdf::ct_lobe<double>(grid[k], o.f0, g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
+    phi.setZero();
+    for (std::uint32_t mi = 0; mi < b->member_count; ++mi) {
+      const AchroMember& m = b->members[mi];
+      const brdf::CoatGeometry<double> g = brdf::coat_geometry<double>(o.ior_start, m.wi, m.wo);
+      phi[0] += m.weight * g.transmittance * kInvPi;
+      for (int k = 0; k < G; ++k)
+        phi[1 + k] += m.weight * g.transmittance *
+                      brdf::ct_lobe<double>(grid[k], o.f0, g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
+    }
     const double w = b->inv_sigma / b->value;
     gram.selfadjointView<Eigen::Lower>().rankUpdate(phi, w * w);
     rhs += w * w * b->value * phi;
@@ -288,9 +308,11 @@ std::vector<double> evaluate_axf_carpaint(const FitData& data, const brdf::AxfCa
   const brdf::AxfCarPaint model(params);
   std::vector<double> out(3 * data.bins.size());
   for (std::size_t q = 0; q < data.bins.size(); ++q) {
-    const Eigen::Vector3d& c = data.bins[q].coords;
-    const brdf::DirectionPair d = brdf::directions_from_half_diff({c[0], 0.0, c[1], c[2]});
-    const brdf::Rgb f = model.eval(d.wi, d.wo);
+    brdf::Rgb f = brdf::Rgb::Zero();
+    for (const FitMember* m = members_begin(data, data.bins[q]); m != members_end(data, data.bins[q]); ++m) {
+      const brdf::DirectionPair d = brdf::directions_from_half_diff({m->coords[0], 0.0, m->coords[1], m->coords[2]});
+      f += m->weight * model.eval(d.wi, d.wo);
+    }
     for (int ch = 0; ch < 3; ++ch) out[3 * q + ch] = f[ch];
   }
   return out;
@@ -303,6 +325,12 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
   const std::size_t n_params = 2 + static_cast<std::size_t>(o.fit_f0 ? 3 : 2) * static_cast<std::size_t>(K);
 
   // Stage 1 data: bins with all three channels positive.
+  std::vector<AchroMember> achro_members(data.members.size());
+  for (std::size_t i = 0; i < data.members.size(); ++i) {
+    const Eigen::Vector3d& c = data.members[i].coords;
+    const brdf::DirectionPair d = brdf::directions_from_half_diff({c[0], 0.0, c[1], c[2]});
+    achro_members[i] = {d.wi, d.wo, data.members[i].weight};
+  }
   std::vector<AchroBin> achro;
   achro.reserve(data.bins.size());
   const double floor2 = data.options.relative_floor * data.options.relative_floor;
@@ -310,10 +338,12 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
     if (b.inv_sigma[0] == 0.0 || b.inv_sigma[1] == 0.0 || b.inv_sigma[2] == 0.0) continue;
     AchroBin a;
     a.src = &b;
-    const brdf::DirectionPair d = brdf::directions_from_half_diff({b.coords[0], 0.0, b.coords[1], b.coords[2]});
-    a.wi = d.wi;
-    a.wo = d.wo;
-    if (a.wi.z() <= 0.0 || a.wo.z() <= 0.0) continue;
+    a.members = achro_members.data() + b.member_begin;
+    a.member_count = b.member_count;
+    bool above = true;
+    for (std::uint32_t mi = 0; mi < a.member_count; ++mi)
+      above = above && a.members[mi].wi.z() > 0.0 && a.members[mi].wo.z() > 0.0;
+    if (!above) continue;
     a.value = (b.value[0] + b.value[1] + b.value[2]) / 3.0;
     // The channels' log noise, taken as fully correlated (a monochrome camera's are).
     const double s2 = (b.noise_sigma[0] * b.noise_sigma[0] + b.noise_sigma[1] * b.noise_sigma[1] +
@@ -456,26 +486,32 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
   std::vector<double> achro_model(achro.size());
   for (std::size_t q = 0; q < achro.size(); ++q) {
     const AchroBin& a = achro[q];
-    brdf::CoatGeometry<double> g;
-    const double model = achromatic(p, K, a, &g);
+    const double model = achromatic(p, K, a);
     achro_model[q] = model;
     if (!(model > kMinModelValue)) continue;
-    const double th = std::acos(std::clamp(g.n_dot_hbar, -1.0, 1.0));
-    const double ti = std::acos(std::clamp(g.hbar_dot_obar, -1.0, 1.0));
-    double x = std::clamp(th / kHalfPi * nh - 0.5, 0.0, nh - 1.0), y = std::clamp(ti / kHalfPi * ni - 0.5, 0.0, ni - 1.0);
-    const int x0 = std::min(static_cast<int>(x), nh - 2), y0 = std::min(static_cast<int>(y), ni - 2);
-    const double fx = x - x0, fy = y - y0;
-    for (int dx = 0; dx < 2; ++dx)
-      for (int dy = 0; dy < 2; ++dy) {
-        const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
-        if (w <= 0.0) continue;
-        const std::size_t t = static_cast<std::size_t>((x0 + dx) * ni + (y0 + dy));
-        for (int c = 0; c < 3; ++c) {
-          const double wc = w * a.src->inv_sigma[c] * a.src->inv_sigma[c];
-          num[t][c] += wc * a.src->value[c] / model;
-          den[t][c] += wc;
+    // The point's colour ratio, splatted at each member bin's (theta_hbar, theta_ibar).
+    for (std::uint32_t mi = 0; mi < a.member_count; ++mi) {
+      const AchroMember& m = a.members[mi];
+      brdf::CoatGeometry<double> g;
+      achromatic(p, K, m, &g);
+      const double th = std::acos(std::clamp(g.n_dot_hbar, -1.0, 1.0));
+      const double ti = std::acos(std::clamp(g.hbar_dot_obar, -1.0, 1.0));
+      const double x = std::clamp(th / kHalfPi * nh - 0.5, 0.0, nh - 1.0);
+      const double y = std::clamp(ti / kHalfPi * ni - 0.5, 0.0, ni - 1.0);
+      const int x0 = std::min(static_cast<int>(x), nh - 2), y0 = std::min(static_cast<int>(y), ni - 2);
+      const double fx = x - x0, fy = y - y0;
+      for (int dx = 0; dx < 2; ++dx)
+        for (int dy = 0; dy < 2; ++dy) {
+          const double w = m.weight * (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
+          if (w <= 0.0) continue;
+          const std::size_t t = static_cast<std::size_t>((x0 + dx) * ni + (y0 + dy));
+          for (int c = 0; c < 3; ++c) {
+            const double wc = w * a.src->inv_sigma[c] * a.src->inv_sigma[c];
+            num[t][c] += wc * a.src->value[c] / model;
+            den[t][c] += wc;
+          }
         }
-      }
+    }
   }
   std::vector<char> measured(texels, 0);
   for (std::size_t t = 0; t < texels; ++t) measured[t] = den[t][0] > 0.0 && den[t][1] > 0.0 && den[t][2] > 0.0;

@@ -61,7 +61,8 @@ struct CtParams {
 // of brdf::ct_lobe when Ceres asks for Jacobians, in plain doubles otherwise.
 class CtChunkCost final : public ceres::CostFunction {
  public:
-  CtChunkCost(std::vector<const FitBin*> bins, int lobes) : bins_(std::move(bins)), n_(lobes) {
+  CtChunkCost(const FitData* data, std::vector<const FitBin*> bins, int lobes)
+      : data_(data), bins_(std::move(bins)), n_(lobes) {
     set_num_residuals(3 * static_cast<int>(bins_.size()));
     for (int c = 0; c < 3; ++c) mutable_parameter_block_sizes()->push_back(n_ + 1);
     mutable_parameter_block_sizes()->push_back(2 * n_);
@@ -74,17 +75,19 @@ class CtChunkCost final : public ceres::CostFunction {
     const bool want_jacobian = jacobians != nullptr;
     for (std::size_t q = 0; q < bins_.size(); ++q) {
       const FitBin& b = *bins_[q];
+      // The lobes averaged over the point's member bins (one for an unpooled bin).
       std::array<double, kMaxLobes> value{}, dm{}, dr{};
-      for (int l = 0; l < n_; ++l) {
-        if (want_jacobian) {
-          const Jet lobe = brdf::ct_lobe(Jet(nl[2 * l], 0), Jet(nl[2 * l + 1], 1), b.geometry);
-          value[l] = lobe.a;
-          dm[l] = lobe.v[0];
-          dr[l] = lobe.v[1];
-        } else {
-          value[l] = brdf::ct_lobe(nl[2 * l], nl[2 * l + 1], b.geometry);
+      for (const FitMember* mb = members_begin(*data_, b); mb != members_end(*data_, b); ++mb)
+        for (int l = 0; l < n_; ++l) {
+          if (want_jacobian) {
+            const Jet lobe = brdf::ct_lobe(Jet(nl[2 * l], 0), Jet(nl[2 * l + 1], 1), mb->geometry);
+            value[l] += mb->weight * lobe.a;
+            dm[l] += mb->weight * lobe.v[0];
+            dr[l] += mb->weight * lobe.v[1];
+          } else {
+            value[l] += mb->weight * brdf::ct_lobe(nl[2 * l], nl[2 * l + 1], mb->geometry);
+          }
         }
-      }
       for (int c = 0; c < 3; ++c) {
         const std::size_t row = 3 * q + static_cast<std::size_t>(c);
         const double* lin = parameters[c];
@@ -125,6 +128,7 @@ class CtChunkCost final : public ceres::CostFunction {
   }
 
  private:
+  const FitData* data_;
   std::vector<const FitBin*> bins_;
   int n_;
 };
@@ -141,7 +145,8 @@ struct ProblemHolder {
   std::vector<ceres::ResidualBlockId> ids;
 };
 
-void build_problem(ProblemHolder& h, const std::vector<const FitBin*>& bins, CtParams& p, const CtFitOptions& o) {
+void build_problem(ProblemHolder& h, const FitData& data, const std::vector<const FitBin*>& bins, CtParams& p,
+                   const CtFitOptions& o) {
   ceres::Problem& problem = h.problem;
   const int n = p.lobes;
   for (int c = 0; c < 3; ++c) problem.AddParameterBlock(p.lin[c].data(), n + 1);
@@ -153,7 +158,7 @@ void build_problem(ProblemHolder& h, const std::vector<const FitBin*>& bins, CtP
                                     bins.begin() + static_cast<std::ptrdiff_t>(e));
     ceres::LossFunction* loss = o.huber_scale > 0.0 ? new ceres::HuberLoss(o.huber_scale) : nullptr;
     h.ids.push_back(problem.AddResidualBlock(
-        new CtChunkCost(std::move(part), n), loss,
+        new CtChunkCost(&data, std::move(part), n), loss,
         std::vector<double*>{p.lin[0].data(), p.lin[1].data(), p.lin[2].data(), p.nl.data()}));
     ++h.residual_blocks;
   }
@@ -167,11 +172,12 @@ void build_problem(ProblemHolder& h, const std::vector<const FitBin*>& bins, CtP
   }
 }
 
-Solved solve(const std::vector<const FitBin*>& bins, CtParams start, const CtFitOptions& o, int max_iterations) {
+Solved solve(const FitData& data, const std::vector<const FitBin*>& bins, CtParams start, const CtFitOptions& o,
+             int max_iterations) {
   Solved out;
   out.params = start;
   ProblemHolder h;
-  build_problem(h, bins, out.params, o);
+  build_problem(h, data, bins, out.params, o);
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
@@ -195,7 +201,7 @@ struct GridStart {
 
 // Grid starts: every combination of N distinct roughnesses from a log-spaced list, r = 0.5,
 // with kd and ks from NNLS on relative residuals (the linear part of the model).
-std::vector<GridStart> grid_starts(const std::vector<const FitBin*>& bins, const CtFitOptions& o) {
+std::vector<GridStart> grid_starts(const FitData& data, const std::vector<const FitBin*>& bins, const CtFitOptions& o) {
   const std::vector<double> grid = roughness_grid(o.m_min);
   const int G = static_cast<int>(grid.size());
   const int N = o.lobes;
@@ -210,7 +216,11 @@ std::vector<GridStart> grid_starts(const std::vector<const FitBin*>& bins, const
   Eigen::VectorXd phi(G + 1);
   for (const FitBin* b : bins) {
     phi[0] = kInvPi;
-    for (int g = 0; g < G; ++g) phi[1 + g] = brdf::ct_lobe(grid[g], 0.5, b->geometry);
+    for (int g = 0; g < G; ++g) {
+      phi[1 + g] = 0.0;
+      for (const FitMember* mb = members_begin(data, *b); mb != members_end(data, *b); ++mb)
+        phi[1 + g] += mb->weight * brdf::ct_lobe(grid[g], 0.5, mb->geometry);
+    }
     for (int c = 0; c < 3; ++c) {
       if (b->inv_sigma[c] == 0.0) continue;
       const double w = b->inv_sigma[c] / b->value[c];
@@ -338,7 +348,8 @@ std::vector<double> evaluate_cook_torrance(const FitData& data, const brdf::Cook
   for (std::size_t q = 0; q < data.bins.size(); ++q) {
     const FitBin& b = data.bins[q];
     brdf::Rgb f = p.kd * kInvPi;
-    for (const brdf::CtLobe& l : p.lobes) f += l.ks * brdf::ct_lobe(l.m, l.r, b.geometry);
+    for (const FitMember* mb = members_begin(data, b); mb != members_end(data, b); ++mb)
+      for (const brdf::CtLobe& l : p.lobes) f += mb->weight * l.ks * brdf::ct_lobe(l.m, l.r, mb->geometry);
     for (int c = 0; c < 3; ++c) out[3 * q + c] = f[c];
   }
   return out;
@@ -364,7 +375,7 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
     return fmt::format("{:.2f} s, cpu {:.2f} s", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                        static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC);
   };
-  std::vector<GridStart> candidates = grid_starts(sub, o);
+  std::vector<GridStart> candidates = grid_starts(data, sub, o);
   spdlog::debug("cook-torrance fit: {} grid starts on {} of {} bins in {}", candidates.size(), sub.size(),
                 all.size(), elapsed());
   std::vector<GridStart> starts(candidates.begin(),
@@ -388,7 +399,7 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
   double best_cost = std::numeric_limits<double>::infinity();
   for (GridStart& s : starts) {
     ensure_positive(s.params, sub);
-    Solved r = solve(sub, s.params, o, std::max(10, o.max_iterations / 3));
+    Solved r = solve(data, sub, s.params, o, std::max(10, o.max_iterations / 3));
     StartReport rep;
     rep.origin = s.origin;
     rep.initial_cost = r.summary.initial_cost;
@@ -406,7 +417,7 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
   if (!std::isfinite(best_cost)) throw JobError("the Cook-Torrance fit failed from every start (no usable solution)");
 
   // Polish on all bins.
-  Solved final_solve = solve(all, best.params, o, o.max_iterations);
+  Solved final_solve = solve(data, all, best.params, o, o.max_iterations);
   CtParams p = final_solve.params;
   spdlog::debug("  polish on all bins: {} iterations ({})", final_solve.summary.iterations.size() - 1, elapsed());
   FitSummary& sum = fit.summary;
@@ -429,7 +440,7 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
     const double scale = std::sqrt(std::max(1.0, sum.chi2_per_dof));
     CtParams at = p;
     ProblemHolder h;
-    build_problem(h, all, at, o);
+    build_problem(h, data, all, at, o);
     std::vector<detail::CovarianceBlock> blocks(4);
     for (int c = 0; c < 3; ++c) {
       blocks[c].values = at.lin[c].data();

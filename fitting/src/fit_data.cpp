@@ -21,6 +21,8 @@ using brdf::kMerlThetaH;
 void FitDataOptions::check() const {
   if (!(relative_floor > 0.0 && relative_floor < 1.0))
     throw DataError(fmt::format("FitDataOptions::relative_floor = {}. Violated constraint: in (0, 1)", relative_floor));
+  if (min_samples < 1)
+    throw DataError(fmt::format("FitDataOptions::min_samples = {}. Violated constraint: >= 1", min_samples));
 }
 
 const char* to_string(NoiseSource s) {
@@ -85,56 +87,131 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& opt
   }
 
   const double floor2 = options.relative_floor * options.relative_floor;
-  for (std::size_t b = 0; b < kMerlBins; ++b) {
-    if (table.state(b) != brdf::BinState::Measured) continue;
-    if (data.has_statistics && table.count(b) < options.min_count) continue;
-    const brdf::Rgb v = table.value(b);
-    if (!(v > 0.0).any()) continue;
-    FitBin fb;
-    fb.bin = static_cast<std::uint32_t>(b);
-    fb.region = region_of_bin(b);
-    fb.coords = table.mean_coords(b);
-    fb.geometry = brdf::LobeGeometry::from_half_diff(fb.coords[0], fb.coords[1], fb.coords[2]);
-    if (!fb.geometry.valid) continue;  // mean coordinates below the horizon: no model value
+  // Per bin: usable?, and its pooled relative per-sample variance.
+  auto pooled_rho = [&](std::size_t b, Region region) {
     std::array<double, 3> pooled{0, 0, 0};
-    if (data.has_statistics) {
-      const brdf::MerlBin mb = brdf::merl_bin_of_flat(b);
-      std::array<double, 3> num{0, 0, 0}, den{0, 0, 0};
-      for (int di = -1; di <= 1; ++di) {
-        const int i = mb.theta_h + di;
-        if (i < 0 || i >= kMerlThetaH) continue;
-        for (int dj = -1; dj <= 1; ++dj) {
-          const int j = mb.theta_d + dj;
-          if (j < 0 || j >= kMerlThetaD) continue;
-          for (int dk = -1; dk <= 1; ++dk) {
-            const int k = (mb.phi_d + dk + kMerlPhiD) % kMerlPhiD;
-            const std::size_t q = brdf::merl_flat_index({i, j, k});
-            // Degrees of freedom of the bin's variance estimate.
-            const double dof = static_cast<double>(table.count(q)) - (use_noise ? 0.0 : 1.0);
-            if (dof <= 0.0) continue;
-            for (int c = 0; c < 3; ++c)
-              if (rho[3 * q + c] >= 0.0f) {
-                num[c] += dof * rho[3 * q + c];
-                den[c] += dof;
-              }
-          }
+    if (!data.has_statistics) return pooled;
+    const brdf::MerlBin mb = brdf::merl_bin_of_flat(b);
+    std::array<double, 3> num{0, 0, 0}, den{0, 0, 0};
+    for (int di = -1; di <= 1; ++di) {
+      const int i = mb.theta_h + di;
+      if (i < 0 || i >= kMerlThetaH) continue;
+      for (int dj = -1; dj <= 1; ++dj) {
+        const int j = mb.theta_d + dj;
+        if (j < 0 || j >= kMerlThetaD) continue;
+        for (int dk = -1; dk <= 1; ++dk) {
+          const int k = (mb.phi_d + dk + kMerlPhiD) % kMerlPhiD;
+          const std::size_t q = brdf::merl_flat_index({i, j, k});
+          // Degrees of freedom of the bin's variance estimate.
+          const double dof = static_cast<double>(table.count(q)) - (use_noise ? 0.0 : 1.0);
+          if (dof <= 0.0) continue;
+          for (int c = 0; c < 3; ++c)
+            if (rho[3 * q + c] >= 0.0f) {
+              num[c] += dof * rho[3 * q + c];
+              den[c] += dof;
+            }
         }
       }
-      for (int c = 0; c < 3; ++c)
-        pooled[c] = den[c] > 0.0 ? num[c] / den[c] : region_median[static_cast<int>(fb.region)][c];
     }
-    const double n = std::max<double>(1.0, table.count(b));
+    for (int c = 0; c < 3; ++c) pooled[c] = den[c] > 0.0 ? num[c] / den[c] : region_median[static_cast<int>(region)][c];
+    return pooled;
+  };
+  auto usable = [&](std::size_t b) {
+    if (table.state(b) != brdf::BinState::Measured) return false;
+    if (data.has_statistics && table.count(b) < options.min_count) return false;
+    if (!(table.value(b) > 0.0).any()) return false;
+    const Eigen::Vector3d c = table.mean_coords(b);
+    return brdf::LobeGeometry::from_half_diff(c[0], c[1], c[2]).valid;
+  };
+
+  // Groups of consecutive phi_d bins of one (theta_h, theta_d) row with at least
+  // min_samples samples together (one bin each when min_samples <= 1 or without counts).
+  struct Group {
+    std::size_t first = 0;
+    std::uint32_t bins = 0;
+    std::vector<std::pair<std::size_t, double>> members;  // (bin, count)
+    double count = 0;
+    Eigen::Vector3d coords = Eigen::Vector3d::Zero();  // sums weighted by count
+    std::array<double, 3> value{0, 0, 0}, rho{0, 0, 0};
+  };
+  auto emit = [&](const Group& g) {
+    FitBin fb;
+    fb.bin = static_cast<std::uint32_t>(g.first);
+    fb.bins = g.bins;
+    fb.count = static_cast<std::uint32_t>(g.count);
+    const double w = std::max(g.count, 1.0);
+    fb.coords = g.coords / w;
+    fb.region = region_of_theta_h(fb.coords[0]);
+    fb.member_begin = static_cast<std::uint32_t>(data.members.size());
+    fb.member_count = static_cast<std::uint32_t>(g.members.size());
+    for (const auto& [bin, n] : g.members) {
+      FitMember m;
+      m.coords = table.mean_coords(bin);
+      m.geometry = brdf::LobeGeometry::from_half_diff(m.coords[0], m.coords[1], m.coords[2]);
+      m.weight = data.has_statistics ? n / w : 1.0 / static_cast<double>(g.members.size());
+      data.members.push_back(m);
+    }
+    bool any = false;
     for (int c = 0; c < 3; ++c) {
-      fb.value[c] = v[c];
-      if (!(v[c] > 0.0)) continue;
-      const double s2 = data.has_statistics ? pooled[c] / n : 0.0;
+      fb.value[c] = g.value[c] / w;
+      if (!(fb.value[c] > 0.0)) continue;
+      const double s2 = data.has_statistics ? (g.rho[c] / w) / w : 0.0;
       fb.noise_sigma[c] = std::sqrt(s2);
-      fb.target[c] = std::log(v[c]) + (options.delta_correction ? 0.5 * s2 : 0.0);
+      fb.target[c] = std::log(fb.value[c]) + (options.delta_correction ? 0.5 * s2 : 0.0);
       fb.inv_sigma[c] = 1.0 / std::sqrt(s2 + floor2);
       ++data.residuals;
+      any = true;
     }
-    data.bins.push_back(fb);
-  }
+    if (any)
+      data.bins.push_back(fb);
+    else
+      data.members.resize(fb.member_begin);
+  };
+  const double target = data.has_statistics ? static_cast<double>(options.min_samples) : 0.0;
+  for (int i = 0; i < kMerlThetaH; ++i)
+    for (int j = 0; j < kMerlThetaD; ++j) {
+      Group g, previous;
+      bool have_previous = false;
+      for (int k = 0; k < kMerlPhiD; ++k) {
+        const std::size_t b = brdf::merl_flat_index({i, j, k});
+        if (!usable(b)) continue;
+        const double n = data.has_statistics ? static_cast<double>(table.count(b)) : 1.0;
+        const std::array<double, 3> rb = pooled_rho(b, region_of_bin(b));
+        if (g.bins == 0) g.first = b;
+        ++g.bins;
+        g.members.emplace_back(b, n);
+        g.count += n;
+        g.coords += n * table.mean_coords(b);
+        const brdf::Rgb v = table.value(b);
+        for (int c = 0; c < 3; ++c) {
+          g.value[c] += n * v[c];
+          g.rho[c] += n * rb[c];
+        }
+        if (g.count >= target) {
+          if (have_previous) emit(previous);
+          previous = g;
+          have_previous = true;
+          g = Group{};
+        }
+      }
+      if (g.bins > 0) {
+        if (have_previous && g.count < 0.5 * target) {  // a small remainder joins the group before it
+          previous.bins += g.bins;
+          previous.members.insert(previous.members.end(), g.members.begin(), g.members.end());
+          previous.count += g.count;
+          previous.coords += g.coords;
+          for (int c = 0; c < 3; ++c) {
+            previous.value[c] += g.value[c];
+            previous.rho[c] += g.rho[c];
+          }
+        } else {
+          if (have_previous) emit(previous);
+          previous = g;
+          have_previous = true;
+        }
+      }
+      if (have_previous) emit(previous);
+    }
   if (data.bins.empty())
     throw DataError(fmt::format("the table has no measured bins with positive values{}: nothing to fit",
                                 options.min_count > 1 ? fmt::format(" and at least {} samples", options.min_count)

@@ -36,14 +36,35 @@ struct FitDataOptions {
   double relative_floor = 0.01;  // floor of sigma (relative error), > 0
   bool delta_correction = true;
   std::uint32_t min_count = 1;   // measured bins with fewer samples are left out (tables with counts)
+  // Consecutive phi_d bins of one (theta_h, theta_d) row are pooled into one fit point until
+  // they hold this many samples together (tables with counts; 1 = every bin on its own).
+  // The point's data value is the mean of all its samples, its model value the
+  // count-weighted mean of the model at each member bin's mean coordinates, so pooling
+  // adds no model error. Why: with flake sparkle single pixels vary by 100 % and more, and
+  // the log of a mean over a few samples is biased far beyond what a delta-method
+  // correction repairs; the log of a mean over many is not.
+  std::uint32_t min_samples = 1;
   void check() const;
 };
 
+// A bin inside a fit point: where the model is evaluated and with which weight
+// (its share of the point's samples; the weights of a point sum to 1).
+struct FitMember {
+  Eigen::Vector3d coords = Eigen::Vector3d::Zero();  // mean (theta_h, theta_d, phi_d) of its samples
+  brdf::LobeGeometry geometry;                        // cosines there
+  double weight = 1.0;
+};
+
+// One point of a fit: a measured bin, or a group of neighbouring phi_d bins
+// (FitDataOptions::min_samples) whose samples are pooled.
 struct FitBin {
-  std::uint32_t bin = 0;
+  std::uint32_t bin = 0;          // the (first) bin
+  std::uint32_t bins = 1;         // bins pooled
+  std::uint32_t count = 0;        // samples pooled (0 without statistics)
   Region region = Region::Diffuse;
-  Eigen::Vector3d coords = Eigen::Vector3d::Zero();  // mean (theta_h, theta_d, phi_d)
-  brdf::LobeGeometry geometry;                        // cosines at the mean coordinates
+  Eigen::Vector3d coords = Eigen::Vector3d::Zero();  // mean (theta_h, theta_d, phi_d) of the samples
+  std::uint32_t member_begin = 0;                     // into FitData::members
+  std::uint32_t member_count = 1;
   std::array<double, 3> value{};                      // v_bc (1/sr)
   std::array<double, 3> target{};                     // y_bc
   std::array<double, 3> inv_sigma{};                  // 1 / sigma_bc; 0 = channel not used (v <= 0)
@@ -55,11 +76,18 @@ const char* to_string(NoiseSource s);  // "none", "sample-spread", "sample-noise
 
 struct FitData {
   std::vector<FitBin> bins;
+  std::vector<FitMember> members;  // of all bins, FitBin::member_begin ..
   std::size_t residuals = 0;     // used (bin, channel) pairs
   bool has_statistics = false;   // counts and variances were available
   NoiseSource noise_source = NoiseSource::None;
   FitDataOptions options;
 };
+
+// The members of a fit point.
+inline const FitMember* members_begin(const FitData& d, const FitBin& b) { return d.members.data() + b.member_begin; }
+inline const FitMember* members_end(const FitData& d, const FitBin& b) {
+  return d.members.data() + b.member_begin + b.member_count;
+}
 
 // Throws DataError when the table has no usable measured bins ("the table has no
 // measured bins with positive values: nothing to fit"). `noise_variance` (3 per bin, the

@@ -1,0 +1,279 @@
+#include "paintlab/fitting/extraction.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+
+#include "paintlab/brdf/rusinkiewicz.h"
+#include "paintlab/calibration/record.h"
+#include "paintlab/calibration/sphere.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/geometry.h"
+#include "paintlab/core/log.h"
+#include "paintlab/core/progress.h"
+
+namespace paintlab::fit {
+
+void ExtractionOptions::check() const {
+  auto fail = [](const char* key, double v, const char* rule) {
+    throw DataError(fmt::format("ExtractionOptions::{} = {}. Violated constraint: {}", key, v, rule));
+  };
+  if (!(margin_px >= 0.0)) fail("margin_px", margin_px, ">= 0");
+  if (!(min_cos >= 0.0 && min_cos < 1.0)) fail("min_cos", min_cos, "in [0, 1)");
+  if (!(min_normal_up >= -1.0 && min_normal_up < 1.0)) fail("min_normal_up", min_normal_up, "in [-1, 1)");
+  if (threads < 0) fail("threads", threads, ">= 0");
+  if (images_in_flight < 0) fail("images_in_flight", images_in_flight, ">= 0");
+}
+
+const char* to_string(VarianceModel v) {
+  switch (v) {
+    case VarianceModel::Local: return "local";
+    case VarianceModel::Hdr: return "hdr";
+  }
+  return "?";
+}
+
+void ExtractionStats::add(const ExtractionStats& o) {
+  images += o.images;
+  sphere_pixels += o.sphere_pixels;
+  samples += o.samples;
+  invalid += o.invalid;
+  non_finite += o.non_finite;
+  grazing += o.grazing;
+}
+
+Json ExtractionStats::to_json() const {
+  return {{"images", images},   {"sphere_pixels", sphere_pixels}, {"samples", samples},
+          {"invalid", invalid}, {"non_finite", non_finite},       {"grazing", grazing}};
+}
+
+SphereSampler::SphereSampler(const calib::RigCalibration& calibration, const ExtractionOptions& options)
+    : cal_(&calibration), options_(options) {
+  options_.check();
+  calibration.require({calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile});
+  const calib::CameraModel& camera = calibration.camera();
+  width_ = camera.width_px;
+  height_ = camera.height_px;
+  const calib::SphereFit& sphere = *calibration.sphere();
+  const Mat3 rig_from_cam = calibration.cam_from_rig().inverse().matrix();
+
+  // The silhouette's bounding box (plus the margin and a pixel) limits the search.
+  double x0 = width_, y0 = height_, x1 = 0, y1 = 0;
+  for (const Vec2& p : calib::silhouette_points(camera, sphere.centre_cam_m, sphere.radius_m, 360)) {
+    x0 = std::min(x0, p.x());
+    y0 = std::min(y0, p.y());
+    x1 = std::max(x1, p.x());
+    y1 = std::max(y1, p.y());
+  }
+  const int pad = static_cast<int>(std::ceil(options_.margin_px)) + 2;
+  const int bx0 = std::clamp(static_cast<int>(std::floor(x0)) - pad, 0, width_ - 1);
+  const int by0 = std::clamp(static_cast<int>(std::floor(y0)) - pad, 0, height_ - 1);
+  const int bx1 = std::clamp(static_cast<int>(std::ceil(x1)) + pad, 0, width_ - 1);
+  const int by1 = std::clamp(static_cast<int>(std::ceil(y1)) + pad, 0, height_ - 1);
+  if (bx1 < bx0 || by1 < by0) throw CalibrationError("the calibrated sphere is not inside the camera image");
+
+  const double m = options_.margin_px;
+  std::vector<std::vector<Pixel>> rows(static_cast<std::size_t>(by1 - by0 + 1));
+  tbb::parallel_for(by0, by1 + 1, [&](int y) {
+    auto& row = rows[static_cast<std::size_t>(y - by0)];
+    for (int x = bx0; x <= bx1; ++x) {
+      const Vec2 px(x, y);
+      const auto sp = calibration.sphere_point_at(px);
+      if (!sp) continue;
+      if (m > 0.0 && (!calibration.sphere_point_at(px + Vec2(m, 0)) || !calibration.sphere_point_at(px - Vec2(m, 0)) ||
+                      !calibration.sphere_point_at(px + Vec2(0, m)) || !calibration.sphere_point_at(px - Vec2(0, m))))
+        continue;
+      if ((rig_from_cam * sp->normal).z() <= options_.min_normal_up) continue;
+      row.push_back({static_cast<std::uint32_t>(y) * static_cast<std::uint32_t>(width_) + static_cast<std::uint32_t>(x),
+                     sp->point.cast<float>(), sp->normal.cast<float>(), sp->to_camera.cast<float>()});
+    }
+  });
+  for (const auto& row : rows) pixels_.insert(pixels_.end(), row.begin(), row.end());
+  if (pixels_.empty()) throw CalibrationError("no pixel of the calibrated sphere's upper half is in the image");
+}
+
+ExtractionStats SphereSampler::extract(const ExrImage& hdr, double table_angle_deg, SampleBatch& out,
+                                       const std::string& source) const {
+  if (hdr.width != width_ || hdr.height != height_)
+    throw DataError(fmt::format("{}: {} x {} pixels, but the calibrated camera has {} x {}", source, hdr.width,
+                                hdr.height, width_, height_));
+  // Channels: mono "Y" or RGB (hdr_merge.h).
+  const ImageF* value[3] = {nullptr, nullptr, nullptr};
+  const ImageF* variance[3] = {nullptr, nullptr, nullptr};
+  if (const ImageF* y = hdr.find("Y")) {
+    value[0] = value[1] = value[2] = y;
+    const ImageF* v = hdr.find("var.Y");
+    variance[0] = variance[1] = variance[2] = v;
+  } else if (hdr.find("R") && hdr.find("G") && hdr.find("B")) {
+    const char* names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; ++c) {
+      value[c] = hdr.find(names[c]);
+      variance[c] = hdr.find(std::string("var.") + names[c]);
+    }
+  } else {
+    throw DataError(fmt::format("{}: no radiance channels (expected Y, or R, G and B)", source));
+  }
+  const bool with_variance = variance[0] && variance[1] && variance[2];
+  const ImageF* valid = hdr.find("valid");
+
+  const calib::LightModel light = cal_->light_model();
+  const calib::ScaleCalibration& scale = *cal_->scale();
+  const Vec3 led = light.led_position_cam(table_angle_deg);
+  ExtractionStats st;
+  st.images = 1;
+
+  // Pass 1: the BRDF value of every usable sphere pixel, also into a frame-sized buffer
+  // (NaN elsewhere) so pass 2 can look at a pixel's neighbours.
+  struct Value {
+    std::uint32_t pixel;  // into pixels_
+    float rgb[3];
+    float var[3];
+    brdf::HalfDiff hd;
+  };
+  std::vector<Value> values;
+  values.reserve(pixels_.size());
+  const bool local = options_.variance == VarianceModel::Local;
+  std::vector<float> frame;
+  if (local) frame.assign(3 * static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_),
+                          std::numeric_limits<float>::quiet_NaN());
+  for (std::size_t k = 0; k < pixels_.size(); ++k) {
+    const Pixel& p = pixels_[k];
+    ++st.sphere_pixels;
+    const std::size_t i = p.index;
+    if (valid && !(valid->data()[i] > 0.5f)) {
+      ++st.invalid;
+      continue;
+    }
+    Value v;
+    v.pixel = static_cast<std::uint32_t>(k);
+    bool finite = true;
+    for (int c = 0; c < 3; ++c) {
+      v.rgb[c] = value[c]->data()[i];
+      v.var[c] = with_variance ? variance[c]->data()[i] : 0.0f;
+      finite = finite && std::isfinite(v.rgb[c]) && std::isfinite(v.var[c]);
+    }
+    if (!finite) {
+      ++st.non_finite;
+      continue;
+    }
+    const Vec3 point = p.point.cast<double>(), n = p.normal.cast<double>(), wo = p.to_camera.cast<double>();
+    const Vec3 wi = (led - point).normalized();
+    const double cos_i = n.dot(wi), cos_o = n.dot(wo);
+    const double e = light.irradiance(table_angle_deg, point, n);
+    if (cos_i < options_.min_cos || cos_o < options_.min_cos || !(e > 0.0)) {
+      ++st.grazing;
+      continue;
+    }
+    const double to_brdf = scale.brdf(1.0, e);  // 1 / (scale E)
+    for (int c = 0; c < 3; ++c) {
+      v.rgb[c] = static_cast<float>(v.rgb[c] * to_brdf);
+      v.var[c] = static_cast<float>(v.var[c] * to_brdf * to_brdf);
+      if (local) frame[3 * i + c] = v.rgb[c];
+    }
+    const Mat3 frame_n = frame_from_normal(n);
+    v.hd = brdf::half_diff_from_directions(frame_n.transpose() * wi, frame_n.transpose() * wo);
+    values.push_back(v);
+  }
+
+  // Pass 2: the samples. With the local variance model, a sample's variance is
+  // (v[-1] - 2 v + v[+1])^2 / 6 averaged over the horizontal and vertical neighbours that
+  // exist: for independent pixels its expectation is the pixel's whole stochastic
+  // variance, noise and sparkle, while the BRDF's smooth change across the image cancels
+  // to first order. Without neighbours, the HDR variance.
+  const bool keep_variance = with_variance || local;
+  out.reserve(out.size() + values.size(), keep_variance);
+  if (!out.empty() && out.has_variance() != keep_variance)
+    throw DataError(fmt::format("{}: has{} variance channels, unlike the images before it", source,
+                                keep_variance ? "" : " no"));
+  for (Value& v : values) {
+    if (local) {
+      const std::size_t i = pixels_[v.pixel].index;
+      const int x = static_cast<int>(i % static_cast<std::size_t>(width_)), y = static_cast<int>(i / static_cast<std::size_t>(width_));
+      double acc[3] = {0, 0, 0};
+      int used = 0;
+      auto second_difference = [&](std::ptrdiff_t step, bool inside) {
+        if (!inside) return;
+        const float* a = &frame[3 * (i - step)];
+        const float* b = &frame[3 * (i + step)];
+        if (!std::isfinite(a[0]) || !std::isfinite(b[0])) return;
+        for (int c = 0; c < 3; ++c) {
+          const double d = static_cast<double>(a[c]) - 2.0 * v.rgb[c] + b[c];
+          acc[c] += d * d / 6.0;
+        }
+        ++used;
+      };
+      second_difference(1, x > 0 && x + 1 < width_);
+      second_difference(width_, y > 0 && y + 1 < height_);
+      if (used > 0)
+        for (int c = 0; c < 3; ++c) v.var[c] = static_cast<float>(acc[c] / used);
+    }
+    if (keep_variance)
+      out.push_back(v.hd.theta_h, v.hd.theta_d, v.hd.phi_d, v.rgb, v.var);
+    else
+      out.push_back(v.hd.theta_h, v.hd.theta_d, v.hd.phi_d, v.rgb[0], v.rgb[1], v.rgb[2]);
+    ++st.samples;
+  }
+  return st;
+}
+
+BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
+                       const ExtractionOptions& extraction, const BinningOptions& binning, ExtractionStats* stats) {
+  extraction.check();
+  if (frames.empty()) throw DataError("no HDR images to extract samples from");
+  const SphereSampler sampler(calibration, extraction);
+  spdlog::info("extraction: {} sphere pixels per image (upper half, {:g} px inside the silhouette)",
+               sampler.pixel_count(), extraction.margin_px);
+  BinAccumulator acc(binning);
+  const int threads = extraction.threads > 0 ? extraction.threads : tbb::this_task_arena::max_concurrency();
+  const std::size_t in_flight =
+      static_cast<std::size_t>(extraction.images_in_flight > 0 ? extraction.images_in_flight : 2 * threads);
+  ExtractionStats total;
+  Progress progress("extract + bin", static_cast<long>(frames.size()), "img");
+  std::size_t next = 0;
+  struct Item {
+    std::size_t index = 0;
+    SampleBatch batch;
+    ExtractionStats stats;
+  };
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_pipeline(
+        in_flight,
+        tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                            [&](tbb::flow_control& fc) -> std::size_t {
+                                              if (next >= frames.size()) {
+                                                fc.stop();
+                                                return 0;
+                                              }
+                                              return next++;
+                                            }) &
+            tbb::make_filter<std::size_t, std::shared_ptr<Item>>(
+                tbb::filter_mode::parallel,
+                [&](std::size_t k) {
+                  auto item = std::make_shared<Item>();
+                  item->index = k;
+                  const HdrFrame& f = frames[k];
+                  const ExrImage img = read_exr(f.path);
+                  item->stats = sampler.extract(img, f.angle_deg, item->batch, f.path.string());
+                  return item;
+                }) &
+            tbb::make_filter<std::shared_ptr<Item>, void>(tbb::filter_mode::serial_in_order,
+                                                          [&](std::shared_ptr<Item> item) {
+                                                            acc.add(item->batch);
+                                                            total.add(item->stats);
+                                                            progress.step(fmt::format(
+                                                                "{:.1f} deg", frames[item->index].angle_deg));
+                                                          }));
+  });
+  progress.finish(fmt::format("{} samples", total.samples));
+  if (stats) *stats = total;
+  return acc.finish();
+}
+
+}  // namespace paintlab::fit

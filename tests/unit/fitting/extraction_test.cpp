@@ -1,0 +1,105 @@
+// Extraction and binning of simulated HDR frames against the simulator's truth, and the
+// fit of what comes out (the pipeline from HDR images on, with the truth calibration).
+#include "paintlab/fitting/extraction.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "paintlab/brdf/paint.h"
+#include "paintlab/core/error.h"
+#include "paintlab/fitting/coverage.h"
+#include "paintlab/fitting/ct_fit.h"
+#include "paintlab/sim/paint.h"
+#include "sim_session.h"
+#include "test_util.h"
+
+namespace paintlab::fit {
+namespace {
+
+using test::NearRel;
+
+brdf::PaintSpec silver() { return brdf::load_paint_file(test::source_dir() / "paints/silver-metallic.toml"); }
+
+// z-scores of the measured bins against the truth at their mean coordinates.
+struct ZStats {
+  double mean = 0, sd = 0;
+  std::size_t n = 0;
+};
+ZStats zscores(const BinnedTable& t, const brdf::Brdf& truth, std::uint32_t min_count) {
+  double s = 0, s2 = 0;
+  std::size_t n = 0;
+  for (std::size_t b = 0; b < brdf::kMerlBins; ++b) {
+    if (t.table.state(b) != brdf::BinState::Measured || t.table.count(b) < min_count) continue;
+    if (region_of_bin(b) == Region::Peak) continue;  // within-bin curvature of the clear coat: see docs
+    const Eigen::Vector3d c = t.table.mean_coords(b);
+    const brdf::DirectionPair d = brdf::directions_from_half_diff({c[0], 0.0, c[1], c[2]});
+    const brdf::Rgb f = truth.eval(d.wi, d.wo);
+    const brdf::Rgb v = t.table.value(b), noise = t.noise(b);
+    for (int ch = 0; ch < 3; ++ch) {
+      const double z = (v[ch] - f[ch]) / std::sqrt(noise[ch] / t.table.count(b));
+      s += z;
+      s2 += z * z;
+      ++n;
+    }
+  }
+  ZStats z;
+  z.n = n;
+  z.mean = s / n;
+  z.sd = std::sqrt(s2 / n - z.mean * z.mean);
+  return z;
+}
+
+TEST(Extraction, BinnedSimulatedFramesAgreeWithTheTruthWithinTheNoise) {
+  const brdf::PaintSpec spec = silver();
+  test_support::SimSessionOptions o;
+  o.sparkle = false;
+  auto session = test_support::make_sim_session(sim::sim_paint(spec), o);
+  const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());
+  ExtractionStats stats;
+  ExtractionOptions eo;
+  eo.threads = 2;
+  const BinnedTable t = bin_frames(session->frames, cal, eo, {}, &stats);
+  std::printf("extraction: %llu images, %llu sphere pixels, %llu samples, %llu grazing, %llu invalid\n",
+              static_cast<unsigned long long>(stats.images), static_cast<unsigned long long>(stats.sphere_pixels),
+              static_cast<unsigned long long>(stats.samples), static_cast<unsigned long long>(stats.grazing),
+              static_cast<unsigned long long>(stats.invalid));
+  EXPECT_EQ(stats.images, session->frames.size());
+  EXPECT_EQ(stats.samples, t.samples_binned);
+  EXPECT_EQ(stats.invalid, 0u);
+  EXPECT_GT(stats.samples, 1000000u);
+  std::printf("%s", coverage(t.table).describe().c_str());
+  const auto truth = brdf::make_brdf(spec);
+  const ZStats z = zscores(t, *truth, 2);
+  std::printf("z-scores of %zu bin values against the truth: mean %.3f, sd %.3f\n", z.n, z.mean, z.sd);
+  EXPECT_LT(std::abs(z.mean), 0.1);
+  EXPECT_GT(z.sd, 0.85);
+  EXPECT_LT(z.sd, 1.2);
+}
+
+TEST(Extraction, ImagesOfTheWrongSizeOrWithoutRadianceAreRejected) {
+  test_support::SimSessionOptions o;
+  o.start_deg = o.stop_deg = 90.0;
+  auto session = test_support::make_sim_session(sim::sim_paint(silver()), o);
+  const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());
+  const SphereSampler sampler(cal);
+  SampleBatch out;
+  ExrImage small;
+  small.add("Y", ImageF(10, 10));
+  EXPECT_THROW(sampler.extract(small, 0.0, out, "small.exr"), DataError);
+  ExrImage nothing;
+  nothing.add("Z", ImageF(o.width_px, o.height_px));
+  try {
+    sampler.extract(nothing, 0.0, out, "nothing.exr");
+    ADD_FAILURE();
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("nothing.exr: no radiance channels"));
+  }
+  // A calibration folder without the light calibration cannot extract.
+  std::filesystem::remove(session->calibration_dir() / calib::kLightFile);
+  EXPECT_THROW(SphereSampler(calib::RigCalibration::load(session->calibration_dir())), CalibrationError);
+}
+
+}  // namespace
+}  // namespace paintlab::fit
