@@ -28,6 +28,8 @@ void register_sim_serve_command(CLI::App& app);
 void register_devices_commands(CLI::App& app);
 void register_measure_commands(CLI::App& app);  // paintlab measure (cmd_measure.cpp)
 void register_fit_commands(CLI::App& app);      // paintlab fit, paintlab bin (cmd_fit.cpp)
+void register_calibrate_radiometric_commands(CLI::App& app);  // paintlab calibrate response|dark|flat
+void register_hdr_commands(CLI::App& app);  // paintlab hdr merge (cmd_hdr.cpp)
 void register_calibrate_commands(CLI::App& app);  // paintlab calibrate intrinsics|sphere|light|scale|all (cmd_calibrate.cpp)
 void register_check_commands(CLI::App& app);      // paintlab check (cmd_check.cpp)
 

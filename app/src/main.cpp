@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   app::register_devices_commands(app);
   app::register_fit_commands(app);
   app::register_measure_commands(app);
+  app::register_calibrate_radiometric_commands(app);
+  app::register_hdr_commands(app);
   app::register_calibrate_commands(app);
   app::register_check_commands(app);
 

@@ -1,0 +1,53 @@
+#pragma once
+// What `paintlab calibrate response|dark|flat` and `paintlab hdr merge` share: an exposure
+// stack from files (--images FILES|DIR with --exposures LIST or --exposure-file F) or
+// captured through the rig's camera (--rig R --capture).
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "paintlab/calibration/exposure_stack.h"
+#include "paintlab/core/json.h"
+#include "paintlab/core/rig.h"
+
+namespace paintlab::app {
+
+struct StackInput {
+  std::vector<std::string> images;  // files or folders
+  std::string exposures;            // --exposures LIST
+  std::string exposure_file;        // --exposure-file F
+  int bit_depth = 0;                // --bit-depth (0: the files')
+};
+
+// Adds --images, --exposures, --exposure-file, --bit-depth to `cmd`.
+void add_stack_options(CLI::App* cmd, StackInput* in);
+
+// Image files of `items`: files as given, folders expanded to their .png/.tif/.tiff/.pgm
+// files sorted by name. UsageError when nothing is left.
+std::vector<std::filesystem::path> expand_images(const std::vector<std::string>& items);
+
+// Loads the stack. Exposure times: --exposures, or --exposure-file, or (for a single folder)
+// its exposures.txt. UsageError when both or neither are given or the counts differ;
+// IoError/DataError naming the unreadable or inconsistent file.
+calib::ExposureStack load_stack_input(const StackInput& in);
+
+// Exposure times from min to max whose successive ratios are not all equal (a geometric
+// bracket times 1, 1.37, 1.71, 1, ...): a constant ratio leaves the response ambiguous.
+std::vector<double> calibration_bracket(double min_s, double max_s, int count);
+
+// True (and the ratio) when the sorted exposures step by one ratio within 2 %.
+bool constant_ratio(std::vector<double> exposures_s, double* ratio);
+
+struct CapturedStack {
+  calib::ExposureStack stack;
+  Json devices = Json::object();  // {"camera": serial}
+};
+
+// Captures `repeats` frames at each of `exposures_s` through the rig's camera with the LED
+// on or off, and saves them as PNG (with exposures.txt) in `save_dir`. The exposures used
+// are the ones the camera applied. DeviceError when a device fails.
+CapturedStack capture_stack(const RigConfig& rig, const std::vector<double>& exposures_s, int repeats, bool light_on,
+                            const std::filesystem::path& save_dir);
+
+}  // namespace paintlab::app
