@@ -87,7 +87,8 @@ int run_measure(const MeasureArgs& a) {
                  "from the current file",
                  rig.file.string());
 
-  MeasureSetup setup = prepare_measurement(rig, a.uncalibrated);
+  const bool uncalibrated = resume ? session->manifest().options.value("uncalibrated", false) : a.uncalibrated;
+  MeasureSetup setup = prepare_measurement(rig, uncalibrated);
 
   StopSignals signals;  // before the devices, so GpiodLight chains to it
   RigDevices devices = open_rig_devices(rig);
@@ -124,7 +125,7 @@ int run_measure(const MeasureArgs& a) {
     m.devices = {{"turntable", {{"id", devices.turntable->id()}}},
                  {"light", {{"id", devices.light->id()}}},
                  {"camera", {{"id", devices.camera->id()}, {"serial", devices.camera->serial()}}}};
-    m.options = {{"keep_raw", a.keep_raw}, {"adaptive", a.adaptive}, {"uncalibrated", a.uncalibrated},
+    m.options = {{"keep_raw", a.keep_raw}, {"adaptive", a.adaptive}, {"uncalibrated", uncalibrated},
                  {"pixel_format", dev::to_string(cam.format)}};
     if (devices.sim) m.options["sim_paint"] = sim_paint_json;
     session.emplace(acq::SessionDir::create(a.out, std::move(m)));
