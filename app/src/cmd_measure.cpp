@@ -88,7 +88,8 @@ int run_measure(const MeasureArgs& a) {
                  rig.file.string());
 
   const bool uncalibrated = resume ? session->manifest().options.value("uncalibrated", false) : a.uncalibrated;
-  MeasureSetup setup = prepare_measurement(rig, uncalibrated);
+  const bool adaptive = resume ? session->manifest().options.value("adaptive", false) : a.adaptive;
+  MeasureSetup setup = prepare_measurement(rig, uncalibrated, adaptive);
 
   StopSignals signals;  // before the devices, so GpiodLight chains to it
   RigDevices devices = open_rig_devices(rig);
@@ -125,7 +126,7 @@ int run_measure(const MeasureArgs& a) {
     m.devices = {{"turntable", {{"id", devices.turntable->id()}}},
                  {"light", {{"id", devices.light->id()}}},
                  {"camera", {{"id", devices.camera->id()}, {"serial", devices.camera->serial()}}}};
-    m.options = {{"keep_raw", a.keep_raw}, {"adaptive", a.adaptive}, {"uncalibrated", uncalibrated},
+    m.options = {{"keep_raw", a.keep_raw}, {"adaptive", adaptive}, {"uncalibrated", uncalibrated},
                  {"pixel_format", dev::to_string(cam.format)}};
     if (devices.sim) m.options["sim_paint"] = sim_paint_json;
     session.emplace(acq::SessionDir::create(a.out, std::move(m)));
@@ -134,7 +135,6 @@ int run_measure(const MeasureArgs& a) {
   acq::RunnerOptions ro;
   ro.keep_raw = resume ? session->manifest().options.value("keep_raw", false) : a.keep_raw;
   ro.max_retries = a.max_retries;
-  const bool adaptive = resume ? session->manifest().options.value("adaptive", false) : a.adaptive;
   MergeState merge(setup.hdr, dev::bit_depth(cam.format));
   acq::Runner runner(*session, {*devices.turntable, *devices.light, *devices.camera, *devices.clock},
                      merge.function());
@@ -171,6 +171,9 @@ void register_measure_commands(CLI::App& app) {
   m->add_option("--notes", a->notes, "free-text notes recorded in session.json");
   m->add_option("--operator", a->operator_name, "who measured (recorded in session.json)");
   m->add_flag("--keep-raw", a->keep_raw, "also keep every raw frame (16-bit PNG under DIR/raw/)");
+  m->add_flag("--adaptive", a->adaptive,
+              "adaptive bracketing: skip exposures that add no unsaturated pixel above the noise floor on the sphere\n"
+              "(needs calib/camera.json and sphere.json)");
   m->add_flag("--uncalibrated", a->uncalibrated,
               "merge without calib/response.json and dark.json (a linear camera is assumed; not for real measurements)");
   m->add_option("--sim-paint", a->sim_paint, "simulated rig only: paint .toml on the simulated sphere (default: the built-in silver metallic)");

@@ -5,6 +5,7 @@
 
 #include "paintlab/brdf/paint.h"
 #include "paintlab/calibration/record.h"
+#include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
 #include "paintlab/sim/paint.h"
@@ -16,7 +17,7 @@ namespace fs = std::filesystem;
 
 namespace paintlab::app {
 
-MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated) {
+MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated, bool need_sphere_mask) {
   MeasureSetup s;
   const fs::path dir = rig.calibration_dir;
   auto use = [&](const char* name, const char* step, bool required) -> std::optional<fs::path> {
@@ -38,6 +39,15 @@ MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated) {
   // current, so the fit can tell whether they changed after the measurement.
   for (const char* name : {calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile})
     use(name, "", false);
+  if (need_sphere_mask) {
+    calib::RigCalibration cal = calib::RigCalibration::load(dir);
+    cal.require({calib::kCameraFile, calib::kSphereFile});  // --adaptive needs the sphere's outline
+    const calib::CameraModel& cam = cal.camera();
+    Image<std::uint8_t> mask(cam.width_px, cam.height_px, 1, 0);
+    for (int y = 0; y < mask.height(); ++y)
+      for (int x = 0; x < mask.width(); ++x) mask.at(x, y) = cal.sphere_point_at(Vec2(x, y)).has_value() ? 1 : 0;
+    s.sphere_mask = std::move(mask);
+  }
   return s;
 }
 
@@ -101,6 +111,10 @@ std::unique_ptr<acq::AdaptiveBracketing> make_adaptive_planner(const MeasureSetu
     const calib::ResponseCurve& g = *setup.hdr.response;
     o.linear_floor = g.to_linear(0, g.window.floor_dn);
     o.linear_saturation = g.to_linear(0, g.window.u_saturation());
+    if (g.noise.known()) {
+      o.read_noise_dn = g.noise.read_noise_dn;
+      o.gain_dn_per_e = g.noise.gain_dn_per_e;
+    }
   } else {
     o.linear_floor = 0.0;
     o.linear_saturation = full_scale;

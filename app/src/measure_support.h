@@ -26,8 +26,9 @@ struct MeasureSetup {
 
 // Loads calib/response.json, dark.json (required unless `uncalibrated`) and flat.json
 // (optional) from the rig's calibration folder. A missing file is a DataError that says
-// which `paintlab calibrate` step makes it.
-MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated);
+// which `paintlab calibrate` step makes it. need_sphere_mask: also the sphere's pixels
+// (camera.json + sphere.json) for adaptive bracketing.
+MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated, bool need_sphere_mask);
 
 struct CameraPreparation {
   dev::PixelFormat format = dev::PixelFormat::Mono16;
