@@ -1,8 +1,13 @@
 // paintlab calibrate response|dark|flat: the radiometric calibration (docs/radiometry.md).
 //   paintlab calibrate response --images FILES... (--exposures LIST | --exposure-file F) --out response.json
 //   paintlab calibrate response --rig R (--images DIR | --capture)       -> calib/response.json
-//   paintlab calibrate dark     --images FILES... (--exposures ... ) --out dark.json | --rig R (--images DIR | --capture)
-//   paintlab calibrate flat     --images FILES... (--exposures ... ) --out flat.json | --rig R --images DIR
+//   paintlab calibrate dark     --images FILES... (--exposures ...) --out dark.json | --rig R (--images DIR | --capture)
+//   paintlab calibrate flat     --images FILES... (--exposures ...) --out flat.json | --rig R (--images DIR | --capture)
+// The three are also steps of `paintlab calibrate all` (dark, then response, then flat, before
+// the geometric steps, which linearise their images with them). With --capture the frames are
+// taken through the rig's devices and kept in calib/captures/<step>/ (with exposures.txt);
+// on a simulated rig the simulator puts the lens cap, the white reference and the diffuser
+// in place, on a real rig the technician does when asked.
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -10,12 +15,15 @@
 #include <memory>
 #include <optional>
 
+#include "calibrate_support.h"
 #include "cli.h"
 #include "paintlab/calibration/dark.h"
 #include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/response.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/geometry.h"
+#include "paintlab/core/result.h"
 #include "paintlab/core/rig.h"
 #include "radiometry_support.h"
 
@@ -35,7 +43,7 @@ struct Common {
 void add_common(CLI::App* cmd, Common* c, const char* what) {
   add_stack_options(cmd, &c->input);
   cmd->add_option("--rig", c->rig, std::string("rig.toml: writes its calibration folder's ") + what);
-  cmd->add_flag("--capture", c->capture, "capture the frames through the rig's camera (needs --rig)");
+  cmd->add_flag("--capture", c->capture, "capture the frames through the rig's devices (needs --rig)");
   cmd->add_option("--out", c->out, std::string("output file (default with --rig: the rig's ") + what + ")");
 }
 
@@ -47,11 +55,6 @@ fs::path output_path(const Common& c, const std::optional<RigConfig>& rig, const
   if (!c.out.empty()) return c.out;
   if (rig) return rig->calibration_dir / file;
   throw UsageError(cmd + ": give --out FILE (or --rig R)");
-}
-
-std::optional<RigConfig> load_rig(const Common& c) {
-  if (c.rig.empty()) return std::nullopt;
-  return RigConfig::load(c.rig);
 }
 
 std::vector<std::uint16_t> parse_colour(const std::string& text) {
@@ -75,25 +78,263 @@ std::vector<std::uint16_t> parse_colour(const std::string& text) {
 
 std::string percent(double v) { return fmt::format("{:.2f} %", 100.0 * v); }
 
+// One run of a step: the rig (when given), the devices (when capturing) or the folder of
+// `calibrate all --images DIR`, and the output file.
+struct StepRun {
+  CalibrateContext* context = nullptr;  // null: files only, no rig
+  fs::path out;
+  const char* step = "";
+
+  bool capturing(const Common& a) const {
+    return context && context->session && a.input.images.empty() && !context->images_dir;
+  }
+  // The stack from files: --images, or DIR/<step> (with its exposures.txt) under `calibrate all`.
+  calib::ExposureStack files(const Common& a) const {
+    if (!a.input.images.empty()) return load_stack_input(a.input);
+    if (context && context->images_dir) {
+      StackInput in;
+      in.images = {(*context->images_dir / step).string()};
+      in.bit_depth = a.input.bit_depth;
+      return load_stack_input(in);
+    }
+    throw UsageError(fmt::format("calibrate {}: give --images (or --rig R --capture)", step));
+  }
+  fs::path capture_dir() const { return context->rig.calibration_dir / "captures" / step; }
+  Json devices() const { return context && context->session ? context->session->serials : Json::object(); }
+  // A calibration file of the rig, when there is a rig and the file exists.
+  std::optional<fs::path> rig_file(const char* name) const {
+    if (context && fs::exists(context->rig.calibration_dir / name)) return context->rig.calibration_dir / name;
+    return std::nullopt;
+  }
+  // Later steps of the same session linearise with what this one wrote.
+  void refresh() const {
+    if (context && context->session) context->session->hdr = load_radiometry(context->rig);
+  }
+};
+
+// --- dark ------------------------------------------------------------------------------
+
+struct DarkArgs : Common {
+  double hot_sigma = 6.0;
+  int frames = 8;
+};
+
+void run_dark(const DarkArgs& a, const StepRun& run) {
+  calib::DarkOptions opt;
+  opt.hot_sigma = a.hot_sigma;
+  opt.check();
+  calib::ExposureStack stack;
+  if (run.capturing(a)) {
+    if (a.frames < 2) throw UsageError("calibrate dark: --frames must be >= 2 (read noise needs repeated frames)");
+    CalibSession& s = *run.context->session;
+    const auto& t = run.context->rig.plan.exposures_s;
+    present(*s.devices, LensView::Capped);
+    stack = capture_stack(*s.devices, run.context->rig.plan.gain_db, {t.front(), t.back()}, a.frames, false,
+                          run.capture_dir());
+    present(*s.devices, LensView::Scene);
+  } else {
+    stack = run.files(a);
+  }
+  const auto frames = stack.frames();
+  calib::DarkFrame d = calib::calibrate_dark(frames, stack.bit_depth, opt);
+  d.provenance = calib::Provenance::make("dark", stack.files, run.devices());
+  if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
+  d.save(run.out);
+  run.refresh();
+  say(fmt::format("dark: {} frames at {} exposure(s); black level {:.2f} DN, dark current {:.3g} DN/s, read noise {}",
+                  d.frame_count, d.exposures_s.size(), d.mean_bias_dn, d.mean_rate_dn_per_s,
+                  d.read_noise_measured ? fmt::format("{:.3g} DN", d.read_noise_dn)
+                                        : std::string("not measured (needs >= 2 frames at one exposure)")));
+  say(fmt::format("  hot pixels: {} ({:.4f} %)", d.hot_count, 100.0 * d.hot_fraction()));
+  say("  wrote " + run.out.string() + " and " + fs::path(run.out).replace_extension(".exr").string());
+}
+
+// --- response --------------------------------------------------------------------------
+
+struct ResponseArgs : Common {
+  std::string method = "robertson";
+  std::string dark;
+  double black = 0.0;
+  double saturation = -1.0;
+  double floor = -1.0;
+  int knots = 256;
+  double smoothness = -1.0;
+  std::string no_data;
+  int count = 16;
+  double angle_deg = 90.0;
+};
+
+void run_response(const ResponseArgs& a, const StepRun& run) {
+  calib::ResponseOptions opt;
+  opt.method = calib::response_method_from_string(a.method);
+  opt.black_dn = a.black;
+  opt.saturation_dn = a.saturation;
+  opt.floor_dn = a.floor;
+  opt.max_knots = a.knots;
+  opt.smoothness = a.smoothness;
+  opt.no_data = parse_colour(a.no_data);
+  opt.check();
+  std::optional<calib::DarkFrame> dark;
+  std::optional<fs::path> dark_file;
+  if (!a.dark.empty()) dark_file = fs::path(a.dark);
+  else dark_file = run.rig_file(calib::kDarkFile);
+  if (dark_file) dark = calib::DarkFrame::load(*dark_file);
+
+  calib::ExposureStack stack;
+  if (run.capturing(a)) {
+    if (a.count < 3) throw UsageError("calibrate response: --count must be >= 3");
+    // The white reference lit from the side: values from saturation down to the black level
+    // in every exposure of a bracket with unequal steps.
+    CalibSession& s = *run.context->session;
+    const RigConfig& rig = run.context->rig;
+    s.stage->mount(Target::WhiteReference);
+    if (s.devices->turntable) {
+      value_or_throw(s.devices->turntable->move_to(wrap_360(a.angle_deg)));
+      value_or_throw(s.devices->turntable->wait_settled(120.0));
+      if (rig.plan.settle_s > 0) s.devices->clock->sleep_s(rig.plan.settle_s);
+    }
+    const auto& t = rig.plan.exposures_s;
+    stack = capture_stack(*s.devices, rig.plan.gain_db, calibration_bracket(t.front(), t.back(), a.count), 1, true,
+                          run.capture_dir());
+  } else {
+    stack = run.files(a);
+  }
+  double ratio = 0.0;
+  if (constant_ratio(stack.exposures_s, &ratio))
+    spdlog::warn("the exposures step by one ratio (x{:.3g}): the data then fix the curve only up to a periodic "
+                 "ripple and the smoothness prior decides; a bracket with unequal steps is better "
+                 "(docs/radiometry.md)",
+                 ratio);
+  const auto frames = stack.frames();
+  calib::ResponseCurve r = calib::recover_response(frames, stack.bit_depth, opt, dark ? &*dark : nullptr);
+  std::vector<fs::path> inputs = stack.files;
+  if (dark_file) inputs.push_back(*dark_file);
+  r.provenance = calib::Provenance::make("response", inputs, run.devices());
+  if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
+  r.save(run.out);
+  run.refresh();
+  double worst_nonlin = 0.0;
+  for (double v : r.report.nonlinearity_rel) worst_nonlin = std::max(worst_nonlin, v);
+  say(fmt::format("response: {} method, {}-bit, {} channel(s), {} knots, {} images; used range {:.0f}..{:.0f} DN "
+                  "(black {:.1f} DN{})",
+                  calib::to_string(r.method), r.bit_depth, r.channels, r.knots_dn.size(), frames.size(),
+                  r.window.floor_dn, r.window.u_saturation(), r.window.black_dn,
+                  r.dark_subtracted ? ", dark frame subtracted" : ""));
+  say(fmt::format("  linearity error {} (RMS {}), nonlinearity of the camera {}", percent(r.report.linearity_error_rel),
+                  percent(r.report.linearity_rms_rel), percent(worst_nonlin)));
+  if (r.noise.known())
+    say(fmt::format("  noise: read {:.3g} DN, shot {:.3g} DN/e ({})", r.noise.read_noise_dn, r.noise.gain_dn_per_e,
+                    r.noise.source));
+  say("  wrote " + run.out.string());
+}
+
+// --- flat ------------------------------------------------------------------------------
+
+struct FlatArgs : Common {
+  std::string response;
+  std::string dark;
+  int frames = 8;
+};
+
+void run_flat(const FlatArgs& a, const StepRun& run) {
+  std::optional<fs::path> resp_file, dark_file;
+  if (!a.response.empty()) resp_file = fs::path(a.response);
+  else resp_file = run.rig_file(calib::kResponseFile);
+  if (!a.dark.empty()) dark_file = fs::path(a.dark);
+  else dark_file = run.rig_file(calib::kDarkFile);
+  std::optional<calib::ResponseCurve> resp;
+  std::optional<calib::DarkFrame> dark;
+  if (resp_file) resp = calib::ResponseCurve::load(*resp_file);
+  if (dark_file) dark = calib::DarkFrame::load(*dark_file);
+  calib::ExposureStack stack;
+  if (run.capturing(a)) {
+    if (a.frames < 1) throw UsageError("calibrate flat: --frames must be >= 1");
+    CalibSession& s = *run.context->session;
+    const double gain_db = run.context->rig.plan.gain_db;
+    present(*s.devices, LensView::Diffuser);
+    value_or_throw(s.devices->light->off());
+    // The brightest pixels at 60 % of the range: well clear of saturation, far above the noise.
+    const double black = dark ? dark->mean_bias_dn : resp ? resp->window.black_dn : 0.0;
+    const double t = find_exposure(*s.devices, gain_db, black, 0.6, 0.999, 0.01);
+    stack = capture_stack(*s.devices, gain_db, {t}, a.frames, false, run.capture_dir());
+    present(*s.devices, LensView::Scene);
+  } else {
+    stack = run.files(a);
+  }
+  const auto frames = stack.frames();
+  calib::FlatField f =
+      calib::calibrate_flat(frames, stack.bit_depth, {}, resp ? &*resp : nullptr, dark ? &*dark : nullptr);
+  std::vector<fs::path> inputs = stack.files;
+  if (resp_file) inputs.push_back(*resp_file);
+  if (dark_file) inputs.push_back(*dark_file);
+  f.provenance = calib::Provenance::make("flat", inputs, run.devices());
+  if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
+  f.save(run.out);
+  run.refresh();
+  say(fmt::format("flat: {} frames, mean signal {:.0f} DN; darkest/brightest corner {:.3f}, darkest corner/centre "
+                  "{:.3f}, pixel non-uniformity {}",
+                  f.frame_count, f.mean_signal_dn, f.corner_ratio, f.centre_to_corner, percent(f.prnu_rel)));
+  if (f.noise.known()) say(fmt::format("  conversion gain {:.4g} DN/e ({})", f.noise.gain_dn_per_e, f.noise.source));
+  say("  wrote " + run.out.string() + " and " + fs::path(run.out).replace_extension(".exr").string());
+}
+
+// The stand-alone command: rig and devices as the options say, then the step.
+template <class Args>
+void run_command(const Args& a, const char* step, const char* file, void (*run)(const Args&, const StepRun&)) {
+  std::optional<RigConfig> rig;
+  if (!a.rig.empty()) rig = RigConfig::load(a.rig);
+  StepRun r;
+  r.step = step;
+  r.out = output_path(a, rig, file, std::string("calibrate ") + step);
+  CalibrateContext c;
+  std::unique_ptr<CalibSession> keep;
+  if (rig) {
+    c.rig = *rig;
+    if (a.capture) {
+      keep = std::make_unique<CalibSession>(open_calib_session(*rig, 0.0));
+      c.session = keep.get();
+    }
+    r.context = &c;
+  }
+  run(a, r);
+}
+
+// The step of `paintlab calibrate all`: the command's defaults, the rig's file.
+template <class Args>
+CalibrateStep all_step(const char* step, const char* file, int order, void (*run)(const Args&, const StepRun&)) {
+  return {step, order, [step, file, run](CalibrateContext& c) {
+            const Args a;  // the defaults (the stand-alone command's options are not parsed under `all`)
+            StepRun r;
+            r.context = &c;
+            r.step = step;
+            fs::create_directories(c.rig.calibration_dir);
+            r.out = c.rig.calibration_dir / file;
+            run(a, r);
+          }};
+}
+
 }  // namespace
 
 void register_calibrate_radiometric_commands(CLI::App& app) {
   CLI::App* group = subcommand_group(app, "calibrate", "Calibrate the rig (writes the rig's calibration folder)");
 
-  // --- response ------------------------------------------------------------------------
   {
-    struct Args : Common {
-      std::string method = "robertson";
-      std::string dark;
-      double black = 0.0;
-      double saturation = -1.0;
-      double floor = -1.0;
-      int knots = 256;
-      double smoothness = -1.0;
-      std::string no_data;
-      int count = 16;
-    };
-    auto a = std::make_shared<Args>();
+    auto a = std::make_shared<DarkArgs>();
+    CLI::App* cmd = group->add_subcommand(
+        "dark", "Dark frame (black level per pixel, dark current, read noise) and hot pixels (writes dark.json + dark.exr)");
+    add_common(cmd, a.get(), "dark.json");
+    cmd->add_option("--hot-sigma", a->hot_sigma, "hot pixel threshold in robust standard deviations")->capture_default_str();
+    cmd->add_option("--frames", a->frames, "frames per exposure with --capture (at the bracket's shortest and longest)")
+        ->capture_default_str();
+    on_run(cmd, [a] {
+      run_command<DarkArgs>(*a, "dark", calib::kDarkFile, &run_dark);
+      return 0;
+    });
+    register_calibration_step(all_step<DarkArgs>("dark", calib::kDarkFile, 20, &run_dark));
+  }
+
+  {
+    auto a = std::make_shared<ResponseArgs>();
     CLI::App* cmd = group->add_subcommand(
         "response", "Camera response curve from an exposure stack (Robertson's or Debevec's method; writes response.json)");
     add_common(cmd, a.get(), "response.json");
@@ -102,158 +343,33 @@ void register_calibrate_radiometric_commands(CLI::App& app) {
     cmd->add_option("--black", a->black, "black level (DN) subtracted when there is no dark frame");
     cmd->add_option("--saturation", a->saturation, "raw value treated as saturated (default: detected)");
     cmd->add_option("--floor", a->floor, "noise floor (DN above black) below which values carry no weight");
-    cmd->add_option("--knots", a->knots, "curve knots for 10..16-bit data (8-bit: one per value)");
+    cmd->add_option("--knots", a->knots, "curve knots for 10..16-bit data (8-bit: one per value)")->capture_default_str();
     cmd->add_option("--smoothness", a->smoothness, "curvature penalty (default: the method's)");
     cmd->add_option("--no-data", a->no_data, "colour R,G,B (or one value) that marks pixels without data");
-    cmd->add_option("--count", a->count, "exposures to capture with --capture");
+    cmd->add_option("--count", a->count, "exposures to capture with --capture")->capture_default_str();
+    cmd->add_option("--angle", a->angle_deg, "table angle for --capture (deg; the LED lights the reference from the side)")
+        ->capture_default_str();
     on_run(cmd, [a] {
-      const auto rig = load_rig(*a);
-      const fs::path out = output_path(*a, rig, calib::kResponseFile, "calibrate response");
-      calib::ResponseOptions opt;
-      opt.method = calib::response_method_from_string(a->method);
-      opt.black_dn = a->black;
-      opt.saturation_dn = a->saturation;
-      opt.floor_dn = a->floor;
-      opt.max_knots = a->knots;
-      opt.smoothness = a->smoothness;
-      opt.no_data = parse_colour(a->no_data);
-      opt.check();
-      std::optional<calib::DarkFrame> dark;
-      fs::path dark_file = a->dark;
-      if (dark_file.empty() && rig && fs::exists(rig->calibration_dir / calib::kDarkFile))
-        dark_file = rig->calibration_dir / calib::kDarkFile;
-      if (!dark_file.empty()) dark = calib::DarkFrame::load(dark_file);
-
-      calib::ExposureStack stack;
-      Json devices = Json::object();
-      if (a->capture) {
-        const auto& t = rig->plan.exposures_s;
-        auto got = capture_stack(*rig, calibration_bracket(t.front(), t.back(), a->count), 1, true,
-                                 rig->calibration_dir / "captures" / "response");
-        stack = std::move(got.stack);
-        devices = got.devices;
-      } else {
-        stack = load_stack_input(a->input);
-      }
-      double ratio = 0.0;
-      if (constant_ratio(stack.exposures_s, &ratio))
-        spdlog::warn("the exposures step by one ratio (x{:.3g}): the data then fix the curve only up to a periodic "
-                     "ripple and the smoothness prior decides; a bracket with unequal steps is better "
-                     "(docs/radiometry.md)",
-                     ratio);
-      const auto frames = stack.frames();
-      calib::ResponseCurve r = calib::recover_response(frames, stack.bit_depth, opt, dark ? &*dark : nullptr);
-      std::vector<fs::path> inputs = stack.files;
-      if (dark) inputs.push_back(dark_file);
-      r.provenance = calib::Provenance::make("response", inputs, devices);
-      if (out.has_parent_path()) fs::create_directories(out.parent_path());
-      r.save(out);
-      double worst_nonlin = 0.0;
-      for (double v : r.report.nonlinearity_rel) worst_nonlin = std::max(worst_nonlin, v);
-      say(fmt::format("response: {} method, {}-bit, {} channel(s), {} knots, {} images; used range {:.0f}..{:.0f} DN "
-                      "(black {:.1f} DN{})",
-                      calib::to_string(r.method), r.bit_depth, r.channels, r.knots_dn.size(), frames.size(),
-                      r.window.floor_dn, r.window.u_saturation(), r.window.black_dn,
-                      r.dark_subtracted ? ", dark frame subtracted" : ""));
-      say(fmt::format("  linearity error {} (RMS {}), nonlinearity of the camera {}", percent(r.report.linearity_error_rel),
-                      percent(r.report.linearity_rms_rel), percent(worst_nonlin)));
-      if (r.noise.known())
-        say(fmt::format("  noise: read {:.3g} DN, shot {:.3g} DN/e ({})", r.noise.read_noise_dn, r.noise.gain_dn_per_e,
-                        r.noise.source));
-      say("wrote " + out.string());
+      run_command<ResponseArgs>(*a, "response", calib::kResponseFile, &run_response);
       return 0;
     });
+    register_calibration_step(all_step<ResponseArgs>("response", calib::kResponseFile, 30, &run_response));
   }
 
-  // --- dark ----------------------------------------------------------------------------
   {
-    struct Args : Common {
-      double hot_sigma = 6.0;
-      int frames = 8;
-    };
-    auto a = std::make_shared<Args>();
-    CLI::App* cmd = group->add_subcommand(
-        "dark", "Dark frame (black level per pixel, dark current, read noise) and hot pixels (writes dark.json + dark.exr)");
-    add_common(cmd, a.get(), "dark.json");
-    cmd->add_option("--hot-sigma", a->hot_sigma, "hot pixel threshold in robust standard deviations");
-    cmd->add_option("--frames", a->frames, "frames per exposure with --capture (at the bracket's shortest and longest)");
-    on_run(cmd, [a] {
-      const auto rig = load_rig(*a);
-      const fs::path out = output_path(*a, rig, calib::kDarkFile, "calibrate dark");
-      calib::DarkOptions opt;
-      opt.hot_sigma = a->hot_sigma;
-      opt.check();
-      calib::ExposureStack stack;
-      Json devices = Json::object();
-      if (a->capture) {
-        if (a->frames < 2) throw UsageError("calibrate dark: --frames must be >= 2 (read noise needs repeated frames)");
-        const auto& t = rig->plan.exposures_s;
-        auto got = capture_stack(*rig, {t.front(), t.back()}, a->frames, false,
-                                 rig->calibration_dir / "captures" / "dark");
-        stack = std::move(got.stack);
-        devices = got.devices;
-      } else {
-        stack = load_stack_input(a->input);
-      }
-      const auto frames = stack.frames();
-      calib::DarkFrame d = calib::calibrate_dark(frames, stack.bit_depth, opt);
-      d.provenance = calib::Provenance::make("dark", stack.files, devices);
-      if (out.has_parent_path()) fs::create_directories(out.parent_path());
-      d.save(out);
-      say(fmt::format("dark: {} frames at {} exposure(s); black level {:.2f} DN, dark current {:.3g} DN/s, read noise {}",
-                      d.frame_count, d.exposures_s.size(), d.mean_bias_dn, d.mean_rate_dn_per_s,
-                      d.read_noise_measured ? fmt::format("{:.3g} DN", d.read_noise_dn)
-                                            : std::string("not measured (needs >= 2 frames at one exposure)")));
-      say(fmt::format("  hot pixels: {} ({:.4f} %)", d.hot_count, 100.0 * d.hot_fraction()));
-      say("wrote " + out.string() + " and " + fs::path(out).replace_extension(".exr").string());
-      return 0;
-    });
-  }
-
-  // --- flat ----------------------------------------------------------------------------
-  {
-    struct Args : Common {
-      std::string response;
-      std::string dark;
-    };
-    auto a = std::make_shared<Args>();
+    auto a = std::make_shared<FlatArgs>();
     CLI::App* cmd = group->add_subcommand(
         "flat", "Flat field (vignetting and pixel gain) from images of a uniform target (writes flat.json + flat.exr)");
     add_common(cmd, a.get(), "flat.json");
     cmd->add_option("--response", a->response, "response.json to linearise with (default with --rig: its response.json)");
     cmd->add_option("--dark", a->dark, "dark.json to subtract (default with --rig: its dark.json)");
+    cmd->add_option("--frames", a->frames, "frames to capture with --capture (>= 2 also gives the conversion gain)")
+        ->capture_default_str();
     on_run(cmd, [a] {
-      const auto rig = load_rig(*a);
-      if (a->capture)
-        throw UsageError("calibrate flat: --capture is not supported: the camera must look at a uniform target (a "
-                         "diffuser over the lens); capture those frames and give --images");
-      const fs::path out = output_path(*a, rig, calib::kFlatFile, "calibrate flat");
-      fs::path resp_file = a->response, dark_file = a->dark;
-      if (rig && resp_file.empty() && fs::exists(rig->calibration_dir / calib::kResponseFile))
-        resp_file = rig->calibration_dir / calib::kResponseFile;
-      if (rig && dark_file.empty() && fs::exists(rig->calibration_dir / calib::kDarkFile))
-        dark_file = rig->calibration_dir / calib::kDarkFile;
-      std::optional<calib::ResponseCurve> resp;
-      std::optional<calib::DarkFrame> dark;
-      if (!resp_file.empty()) resp = calib::ResponseCurve::load(resp_file);
-      if (!dark_file.empty()) dark = calib::DarkFrame::load(dark_file);
-      const calib::ExposureStack stack = load_stack_input(a->input);
-      const auto frames = stack.frames();
-      calib::FlatField f = calib::calibrate_flat(frames, stack.bit_depth, {}, resp ? &*resp : nullptr,
-                                                 dark ? &*dark : nullptr);
-      std::vector<fs::path> inputs = stack.files;
-      if (resp) inputs.push_back(resp_file);
-      if (dark) inputs.push_back(dark_file);
-      f.provenance = calib::Provenance::make("flat", inputs);
-      if (out.has_parent_path()) fs::create_directories(out.parent_path());
-      f.save(out);
-      say(fmt::format("flat: {} frames, mean signal {:.0f} DN; darkest/brightest corner {:.3f}, darkest corner/centre "
-                      "{:.3f}, pixel non-uniformity {}",
-                      f.frame_count, f.mean_signal_dn, f.corner_ratio, f.centre_to_corner, percent(f.prnu_rel)));
-      if (f.noise.known()) say(fmt::format("  conversion gain {:.4g} DN/e ({})", f.noise.gain_dn_per_e, f.noise.source));
-      say("wrote " + out.string() + " and " + fs::path(out).replace_extension(".exr").string());
+      run_command<FlatArgs>(*a, "flat", calib::kFlatFile, &run_flat);
       return 0;
     });
+    register_calibration_step(all_step<FlatArgs>("flat", calib::kFlatFile, 40, &run_flat));
   }
 }
 
