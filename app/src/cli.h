@@ -32,5 +32,8 @@ void register_calibrate_radiometric_commands(CLI::App& app);  // paintlab calibr
 void register_hdr_commands(CLI::App& app);  // paintlab hdr merge (cmd_hdr.cpp)
 void register_calibrate_commands(CLI::App& app);  // paintlab calibrate intrinsics|sphere|light|scale|all (cmd_calibrate.cpp)
 void register_check_commands(CLI::App& app);      // paintlab check (cmd_check.cpp)
+void register_export_commands(CLI::App& app);     // paintlab export, paintlab axf validate|show (cmd_export.cpp)
+void register_library_commands(CLI::App& app);    // paintlab library add|list|show|remove|export (cmd_library.cpp)
+void register_render_commands(CLI::App& app);     // paintlab render (cmd_render.cpp)
 
 }  // namespace paintlab::app

@@ -36,6 +36,9 @@ int main(int argc, char** argv) {
   app::register_hdr_commands(app);
   app::register_calibrate_commands(app);
   app::register_check_commands(app);
+  app::register_export_commands(app);
+  app::register_library_commands(app);
+  app::register_render_commands(app);
 
   try {
     app.parse(argc, argv);

@@ -499,3 +499,84 @@ TEST(AxfFile, LibraryFileHoldsEveryPaint) {
       << all_problems(bad);
   EXPECT_THROW(write_axf_library_file(tmp / "dup.h5", {b, b}), DataError);
 }
+
+// ---- paintlab axf validate / show, paintlab export of paint files ----
+
+TEST(AxfCli, ValidateExitCodesAndMessages) {
+  test::TempDir tmp;
+  const fs::path good = tmp / "good.axf.h5";
+  write_axf_file(good, full_paint());
+  auto r = test::run_paintlab("axf validate " + good.string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 1)"));
+
+  const fs::path bad = tmp / "bad.axf.h5";
+  fs::copy_file(good, bad);
+  damage(bad, [](hid_t f) { overwrite_doubles(f, "/carpaint/ct_spreads", {0.2, 1.3, 0.01}); });
+  r = test::run_paintlab("axf validate " + good.string() + " " + bad.string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.out, HasSubstr("bad.axf.h5: invalid (1 problem)"));
+  EXPECT_THAT(r.out, HasSubstr("/carpaint/ct_spreads: value 1.3 at index 1 out of range (0, 1)"));
+
+  const std::string bytes = read_file(good);
+  write_file_atomic(tmp / "cut.axf.h5", std::string_view(bytes).substr(0, bytes.size() / 3));
+  r = test::run_paintlab("axf validate " + (tmp / "cut.axf.h5").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.out, HasSubstr("truncated or damaged HDF5 file"));
+
+  r = test::run_paintlab("axf validate " + (tmp / "absent.axf.h5").string());
+  EXPECT_EQ(r.exit_code, 2);
+  r = test::run_paintlab("axf validate");
+  EXPECT_EQ(r.exit_code, 2);
+
+  r = test::run_paintlab("axf show " + good.string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("clear-coat ior 1.52"));
+  EXPECT_THAT(r.out, HasSubstr("sample panel-17"));
+}
+
+TEST(AxfCli, ExportPaintAndFitFiles) {
+  test::TempDir tmp;
+  const std::string silver = (test::source_dir() / "paints/silver-metallic.toml").string();
+  auto r = test::run_paintlab("export " + silver + " --axf " + (tmp / "s.axf.h5").string() + " --name silver-copy");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const AxfPaint s = read_axf_file(tmp / "s.axf.h5");
+  EXPECT_EQ(s.name, "silver-copy");
+  EXPECT_EQ(s.provenance.source, fs::absolute(silver).lexically_normal().string());
+
+  // Two fits of one measurement (one per model) become one file.
+  CookTorranceFit ct;
+  ct.params = sample_ct(false).params;
+  ct.stddev = *sample_ct(true).stddev;
+  ct.summary.converged = true;
+  Json ctj = ct.to_json("panel-17");
+  ctj["residual"]["log_rms"] = 0.03;
+  ctj["residual"]["bins_used"] = 1234;
+  write_json_file(tmp / "ct.json", ctj);
+  Json cpj = brdf::to_json(brdf::PaintSpec{"panel-17", sample_carpaint(), std::nullopt, {}});
+  write_json_file(tmp / "cp.json", cpj);
+  r = test::run_paintlab("export " + (tmp / "cp.json").string() + " " + (tmp / "ct.json").string() + " --axf " +
+                         (tmp / "both.axf.h5").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const AxfPaint both = read_axf_file(tmp / "both.axf.h5");
+  EXPECT_EQ(both.model, "axf-carpaint");
+  ASSERT_TRUE(both.carpaint && both.cook_torrance && both.cook_torrance->stddev && both.fit_quality);
+  EXPECT_EQ(both.fit_quality->bins_used, 1234);
+
+  // Bad input: exit 2, nothing written.
+  const std::string pearl = (test::source_dir() / "paints/pearlescent.toml").string();
+  r = test::run_paintlab("export " + pearl + " --axf " + (tmp / "p.axf.h5").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("layered-pearlescent"));
+  EXPECT_FALSE(fs::exists(tmp / "p.axf.h5"));
+  r = test::run_paintlab("export " + silver);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--axf"));
+  r = test::run_paintlab("export " + silver + " --merl " + (tmp / "m.binary").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_FALSE(fs::exists(tmp / "m.binary"));
+  r = test::run_paintlab("export " + silver + " --axf " + (tmp / "n.axf.h5").string() + " --name 'Bad Name'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("paint_name"));
+  EXPECT_FALSE(fs::exists(tmp / "n.axf.h5"));
+}

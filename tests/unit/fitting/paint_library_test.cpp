@@ -303,3 +303,57 @@ TEST(PaintLibrary, ConcurrentWritersLoseNothing) {
   EXPECT_EQ(lib.list().size(), 16u);
   expect_consistent(lib);
 }
+
+TEST(PaintLibraryCli, AddListShowRemoveExport) {
+  test::TempDir tmp;
+  const std::string dir = " --dir " + (tmp / "lib").string();
+  const std::string silver = (test::source_dir() / "paints/silver-metallic.toml").string();
+  const std::string blue = (test::source_dir() / "paints/solid-blue.toml").string();
+  auto r = test::run_paintlab("library add" + dir + " " + silver);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("added 'silver-metallic'"));
+  r = test::run_paintlab("library add" + dir + " " + blue);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = test::run_paintlab("library add" + dir + " " + silver);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--replace"));
+  r = test::run_paintlab("library add" + dir + " " + silver + " --replace");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+
+  r = test::run_paintlab("library list" + dir);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("NAME"));
+  EXPECT_THAT(r.out, HasSubstr("LOG_RMS"));
+  EXPECT_THAT(r.out, HasSubstr("silver-metallic"));
+  EXPECT_THAT(r.out, HasSubstr("cook-torrance"));
+  EXPECT_THAT(r.out, HasSubstr("2 paints"));
+  r = test::run_paintlab("library list --json" + dir);
+  ASSERT_EQ(r.exit_code, 0);
+  EXPECT_EQ(Json::parse(r.out).size(), 2u);
+
+  r = test::run_paintlab("library show" + dir + " solid-blue");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("kd  [0.03, 0.06, 0.3]"));
+  r = test::run_paintlab("library show" + dir + " red");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("no paint 'red'"));
+
+  r = test::run_paintlab("library export" + dir + " --h5 " + (tmp / "all.h5").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_axf_library_file(tmp / "all.h5").size(), 2u);
+  r = test::run_paintlab("library export" + dir + " --folder " + (tmp / "out").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(tmp / "out/solid-blue.axf.h5"));
+  r = test::run_paintlab("library export" + dir + " --folder " + (tmp / "out").string());
+  EXPECT_EQ(r.exit_code, 2);
+  r = test::run_paintlab("library export" + dir);
+  EXPECT_EQ(r.exit_code, 2);
+
+  r = test::run_paintlab("library remove" + dir + " solid-blue");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = test::run_paintlab("library list" + dir);
+  EXPECT_THAT(r.out, HasSubstr("1 paint in"));
+  r = test::run_paintlab("library list --dir " + (tmp / "nolib").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("not a paint library"));
+}

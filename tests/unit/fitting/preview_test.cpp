@@ -10,19 +10,27 @@
 #include <numbers>
 #include <random>
 
+#include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/cook_torrance.h"
+#include "paintlab/brdf/merl.h"
 #include "paintlab/brdf/paint.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/core/hash.h"
+#include "paintlab/core/version.h"
+#include "paintlab/fitting/axf_file.h"
+#include "paintlab/sim/paint.h"
+#include "sim_session.h"
 #include "test_util.h"
 
+namespace fs = std::filesystem;
 using namespace paintlab;
 using namespace paintlab::fit;
+using ::testing::HasSubstr;
 using brdf::Rgb;
 using brdf::Vec3;
 
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 // Günther eq. 1 written out independently of brdf::CookTorrance.
 Rgb cook_torrance_by_hand(const Rgb& kd, const Rgb& ks, double m, double r, const Vec3& n, const Vec3& wi,
@@ -33,7 +41,7 @@ Rgb cook_torrance_by_hand(const Rgb& kd, const Rgb& ks, double m, double r, cons
   const double D = std::exp(-tan2 / (m * m)) / (m * m * std::pow(nh, 4));
   const double F = r + (1 - r) * std::pow(1 - vh, 5);
   const double G = std::min({1.0, 2 * nh * nv / vh, 2 * nh * nl / vh});
-  return kd / kPi + ks * (F * D * G / (kPi * nl * nv));
+  return kd / paintlab::kPi + ks * (F * D * G / (paintlab::kPi * nl * nv));
 }
 
 }  // namespace
@@ -135,8 +143,8 @@ TEST(Preview, EnvironmentSamplingPdfIsNormalised) {
   double integral = 0;
   const int M = 200000;
   for (int i = 0; i < M; ++i) {
-    const double z = 1 - 2 * u(rng), phi = 2 * kPi * u(rng), s = std::sqrt(1 - z * z);
-    integral += env.pdf(Vec3(s * std::cos(phi), s * std::sin(phi), z)) * 4 * kPi;
+    const double z = 1 - 2 * u(rng), phi = 2 * paintlab::kPi * u(rng), s = std::sqrt(1 - z * z);
+    integral += env.pdf(Vec3(s * std::cos(phi), s * std::sin(phi), z)) * 4 * paintlab::kPi;
   }
   EXPECT_NEAR(integral / M, 1.0, 0.02);
   int bright = 0;
@@ -178,4 +186,163 @@ TEST(Preview, OptionsAreChecked) {
   o = {};
   o.light_distance = 1.0;
   EXPECT_THROW(render_preview(lambert, o), DataError);
+}
+
+// ---- the comparison with a measurement (simulated rig, truth calibration) ----
+
+namespace {
+
+brdf::PaintSpec silver() { return brdf::load_paint_file(test::source_dir() / "paints/silver-metallic.toml"); }
+
+brdf::PaintSpec scaled(brdf::PaintSpec spec, double k) {
+  auto& ct = std::get<brdf::CookTorranceParams>(spec.params);
+  ct.kd *= k;
+  for (auto& l : ct.lobes) l.ks *= k;
+  return spec;
+}
+
+// A session folder (session.json, journal.jsonl, hdr/) around simulated HDR frames.
+fs::path make_session_folder(const test_support::SimSession& sim, const fs::path& dir) {
+  acq::SessionManifest m;
+  m.sample = "panel-7";
+  m.created_utc = utc_timestamp();
+  m.software_version = software_version();
+  m.rig_name = "sim-rig";
+  for (const auto& f : sim.frames) m.angles_deg.push_back(f.angle_deg);
+  m.exposures_s = {0.001};
+  for (const char* name : {calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile})
+    m.calibration[name] = sha256_file(sim.calibration_dir() / name);
+  const acq::SessionDir session = acq::SessionDir::create(dir, m);
+  fs::create_directories(dir / "hdr");
+  for (std::size_t i = 0; i < sim.frames.size(); ++i) {
+    acq::JournalEntry e;
+    e.index = static_cast<int>(i);
+    e.angle_deg = e.angle_read_deg = sim.frames[i].angle_deg;
+    e.file = acq::SessionDir::hdr_name(e.index);
+    fs::copy_file(sim.frames[i].path, dir / e.file);
+    e.sha256 = sha256_file(dir / e.file);
+    e.utc = utc_timestamp();
+    session.journal().append(e);
+  }
+  return dir;
+}
+
+}  // namespace
+
+TEST(Preview, ComparisonWithTheTruthMatchesAndAWrongPaintDoesNot) {
+  test_support::SimSessionOptions so;
+  so.start_deg = so.stop_deg = 60.0;
+  so.sparkle = false;
+  so.noise_rel = 0.01;
+  auto sim = test_support::make_sim_session(sim::sim_paint(silver()), so);
+  const calib::RigCalibration cal = calib::RigCalibration::load(sim->calibration_dir());
+  const ExrImage measured = read_exr(sim->frames[0].path);
+
+  const auto truth = brdf::make_brdf(silver());
+  const Comparison good = render_comparison(*truth, cal, measured, 60.0);
+  EXPECT_GT(good.pixels_used, 2000u);
+  EXPECT_NEAR(good.median_ratio, 1.0, 0.02);
+  EXPECT_LT(good.log_rms, 0.03);  // 1 % noise: measured 0.012
+  EXPECT_EQ(good.png.width(), 3 * good.measured.width() + 8);
+  EXPECT_EQ(good.png.height(), good.measured.height());
+
+  const auto bright = brdf::make_brdf(scaled(silver(), 1.5));
+  const Comparison bad = render_comparison(*bright, cal, measured, 60.0);
+  EXPECT_NEAR(bad.median_ratio, 1.5, 0.04);
+  EXPECT_GT(bad.log_rms, 0.3);
+  // The difference panel is red (model brighter) where the good one is nearly black.
+  long red_bad = 0, red_good = 0;
+  const int w = good.measured.width(), off = 2 * (w + 4);
+  for (int y = 0; y < good.png.height(); ++y)
+    for (int x = 0; x < w; ++x) {
+      red_good += good.png.at(off + x, y, 0);
+      red_bad += bad.png.at(off + x, y, 0);
+    }
+  EXPECT_GT(red_bad, 4 * red_good);
+
+  // Another light angle than the image's is caught: the highlight moves.
+  const Comparison wrong_angle = render_comparison(*truth, cal, measured, 90.0);
+  std::printf("comparison: truth median %.4f rms %.4f (%zu px); 1.5x paint median %.4f rms %.4f; wrong angle rms %.4f\n",
+              good.median_ratio, good.log_rms, good.pixels_used, bad.median_ratio, bad.log_rms, wrong_angle.log_rms);
+  EXPECT_GT(wrong_angle.log_rms, 2 * good.log_rms);
+}
+
+TEST(PreviewCli, RenderWritesPngAndHdrAndUsesAnEnvironment) {
+  test::TempDir tmp;
+  const std::string paint = (test::source_dir() / "paints/silver-metallic.toml").string();
+  auto r = test::run_paintlab("render " + paint + " --out " + (tmp / "p.png").string() + " --size 48 --hdr " +
+                              (tmp / "p.exr").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("wrote"));
+  const RawImage png = read_raw_image(tmp / "p.png");
+  EXPECT_EQ(png.pixels.width(), 48);
+  EXPECT_EQ(png.pixels.channels(), 3);
+  const ExrImage hdr = read_exr(tmp / "p.exr");
+  EXPECT_EQ(hdr.width, 48);
+
+  ExrImage env;
+  env.width = 32;
+  env.height = 16;
+  for (const char* c : {"R", "G", "B"}) env.add(c, ImageF(32, 16, 1, 0.5f));
+  write_exr(tmp / "sky.exr", env);
+  r = test::run_paintlab("render " + paint + " --out " + (tmp / "e.png").string() + " --size 32 --samples 4 --env " +
+                         (tmp / "sky.exr").string() + " --no-point-light");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(tmp / "e.png"));
+
+  env.planes[0].at(3, 3) = -1.0f;
+  write_exr(tmp / "bad.exr", env);
+  r = test::run_paintlab("render " + paint + " --out " + (tmp / "b.png").string() + " --env " + (tmp / "bad.exr").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("bad.exr: pixel (3, 3)"));
+  EXPECT_FALSE(fs::exists(tmp / "b.png"));
+  r = test::run_paintlab("render " + paint + " --out " + (tmp / "c.png").string() + " --no-point-light");
+  EXPECT_EQ(r.exit_code, 2);
+}
+
+TEST(PreviewCli, ExportASessionAndCompareWithIt) {
+  test_support::SimSessionOptions so;
+  so.start_deg = 20.0;
+  so.stop_deg = 160.0;
+  so.step_deg = 35.0;
+  so.sparkle = false;
+  so.noise_rel = 0.01;
+  auto sim = test_support::make_sim_session(sim::sim_paint(silver()), so);
+  test::TempDir tmp;
+  const fs::path session = make_session_folder(*sim, tmp / "session");
+  const std::string calib = " --calib " + sim->calibration_dir().string();
+
+  const fs::path axf = tmp / "panel.axf.h5", merl = tmp / "panel.binary";
+  auto r = test::run_paintlab("export " + session.string() + " --axf " + axf.string() + " --merl " + merl.string() +
+                              " --lobes 2 --threads 2" + calib);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("AxF-like paint 'panel-7'"));
+  EXPECT_THAT(r.out, HasSubstr("MERL .binary"));
+  const AxfPaint p = read_axf_file(axf);
+  EXPECT_EQ(p.model, "cook-torrance");
+  ASSERT_TRUE(p.cook_torrance && p.cook_torrance->stddev && p.fit_quality);
+  EXPECT_EQ(p.cook_torrance->params.lobes.size(), 2u);
+  EXPECT_GT(p.fit_quality->bins_used, 1000);
+  EXPECT_EQ(p.provenance.sample_name, "panel-7");
+  EXPECT_EQ(p.provenance.rig_name, "sim-rig");
+  EXPECT_EQ(p.provenance.calibration_sha256.size(), 4u);
+  std::string both = read_file(session / "session.json") + read_file(session / "journal.jsonl");
+  EXPECT_EQ(p.provenance.session_sha256, sha256_hex(both));
+  const brdf::MerlTable t = brdf::read_merl(merl);
+  EXPECT_EQ(fs::file_size(merl), brdf::kMerlFileBytes);
+  EXPECT_GT(t.count_in_state(brdf::BinState::Measured), 100000u);  // measured + filled bins
+
+  r = test::run_paintlab("render " + axf.string() + " --out " + (tmp / "cmp.png").string() + " --compare " +
+                         session.string() + " --angle 60" + calib);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("at table angle 55.0 deg"));
+  EXPECT_THAT(r.out, HasSubstr("RMS log ratio"));
+  EXPECT_TRUE(fs::exists(tmp / "cmp.png"));
+
+  // Bad input: nothing written.
+  r = test::run_paintlab("export " + session.string() + calib);
+  EXPECT_EQ(r.exit_code, 2);
+  r = test::run_paintlab("export " + session.string() + " --axf " + (tmp / "x.h5").string() + " --model phong" + calib);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_FALSE(fs::exists(tmp / "x.h5"));
 }

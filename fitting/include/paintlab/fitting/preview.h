@@ -2,7 +2,7 @@
 // Previews of a paint (docs/axf-like.md "Previews"): a sphere rendered with the paint's BRDF,
 // lit by a point light and optionally by an HDR environment map, tone-mapped to 8-bit sRGB;
 // and the comparison of a measured HDR image with the model rendered in the same rig
-// geometry (see preview_compare in render_compare()).
+// geometry (render_comparison()).
 //
 // The preview scene: a unit sphere at the origin seen by an orthographic camera on +z
 // (x right, y up, view direction wo = +z for every pixel). The point light sits at
@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "paintlab/brdf/brdf.h"
+#include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/image.h"
 #include "paintlab/core/image_io.h"
 
@@ -104,6 +105,45 @@ bool preview_geometry(const PreviewOptions& options, int x, int y, brdf::Vec3* n
 
 // Evaluates the BRDF with world-frame directions at a surface of normal n.
 brdf::Rgb eval_world(const brdf::Brdf& brdf, const brdf::Vec3& n, const brdf::Vec3& wi, const brdf::Vec3& wo);
+
+// The measured HDR image of a session position beside the model rendered in the same rig
+// geometry. For every camera pixel on the calibrated sphere: point, normal and wo from the
+// calibration (RigCalibration::sphere_point_at), wi towards the calibrated LED at the
+// table angle, and the model's pixel value  rate = f(wi, wo) * scale * E  (E the
+// irradiance per unit LED intensity, scale the absolute calibration): the inverse of what
+// extraction does, so model and measurement are in the same unit (linear DN/s).
+// The image is  [measured | model | difference]  cropped around the sphere; measured and
+// model share one exposure (auto from the measured image unless tone.exposure > 0). The
+// difference panel shows d = log2(model / measured) of the mean of the channels:
+// red = model brighter, blue = model darker, the brightness is |d| / diff_range_log2
+// (saturating), black = equal; pixels whose measurement is below the signal floor (or
+// invalid, or at grazing angles) are dark grey.
+struct CompareOptions {
+  double margin_px = 8;           // crop margin around the sphere silhouette
+  double min_cos = 0.05;          // n.wi and n.wo at least this for the statistics
+  double signal_floor_rel = 0.01; // measured value >= this x the exposure's white level
+  double diff_range_log2 = 1.0;   // |d| that saturates the difference colour
+  ToneMapping tone;
+  void check() const;
+};
+
+struct Comparison {
+  ImageF measured;                // cropped linear RGB (mono images repeated in R, G, B)
+  ImageF model;                   // same crop, same unit
+  std::vector<std::uint8_t> used; // 1 where the pixel enters the statistics
+  ImageU8 png;                    // 3 panels side by side
+  int crop_x = 0, crop_y = 0;     // top-left of the crop in the camera image
+  double exposure = 0;
+  std::size_t pixels_used = 0;
+  double log_rms = 0;             // RMS of ln(model / measured) over the pixels used (channel mean)
+  double median_ratio = 0;        // median of model / measured
+};
+
+// measured: an HDR image of the session (channels R, G, B or Y, optional "valid"); the
+// calibration needs camera, sphere, light and scale (CalibrationError names what is
+// missing). DataError when the image size differs from the camera's.
+Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration& calibration,
+                             const ExrImage& measured, double table_angle_deg, const CompareOptions& options = {});
 
 // Writes a linear RGB image as EXR (channels R, G, B) atomically.
 void write_exr_rgb(const std::filesystem::path& path, const ImageF& rgb, const std::string& description);

@@ -1,0 +1,137 @@
+// paintlab library {add,list,show,remove,export} --dir DIR ...   (docs/library.md)
+#include <filesystem>
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "cli.h"
+#include "export_support.h"
+#include "paintlab/core/error.h"
+#include "paintlab/fitting/paint_library.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::app {
+
+namespace {
+
+struct LibraryArgs {
+  std::string dir;
+  std::string file;
+  std::string name;
+  bool replace = false;
+  bool json = false;
+  std::string h5;
+  std::string folder;
+  bool overwrite = false;
+};
+
+void warn_findings(const fit::PaintLibrary& lib) {
+  for (const auto& f : lib.check()) spdlog::warn("library {}: {}", lib.dir().string(), f);
+}
+
+int run_add(const LibraryArgs& a) {
+  fit::AxfPaint paint = load_any_paint(a.file);
+  if (!a.name.empty()) paint.name = a.name;
+  fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, true);
+  const fit::LibraryEntry e = lib.add(paint, a.replace);
+  say(fmt::format("added '{}' to {} ({}, {})", e.name, lib.dir().string(), e.model, e.file));
+  return kExitOk;
+}
+
+int run_list(const LibraryArgs& a) {
+  const fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
+  const auto entries = lib.list();
+  if (a.json) {
+    Json arr = Json::array();
+    for (const auto& e : entries) arr.push_back(e.to_json());
+    say(arr.dump(2));
+    warn_findings(lib);
+    return kExitOk;
+  }
+  std::size_t w = 4;
+  for (const auto& e : entries) w = std::max(w, e.name.size());
+  say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}", "NAME", w, "DATE", "MODEL", "LOG_RMS", "BINS"));
+  for (const auto& e : entries)
+    say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}", e.name, w, e.date, e.model,
+                    e.log_rms ? fmt::format("{:.4f}", *e.log_rms) : "-",
+                    e.bins_used ? std::to_string(*e.bins_used) : "-"));
+  say(fmt::format("{} paint{} in {}", entries.size(), entries.size() == 1 ? "" : "s", lib.dir().string()));
+  warn_findings(lib);
+  return kExitOk;
+}
+
+int run_show(const LibraryArgs& a) {
+  const fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
+  const fit::LibraryEntry e = lib.find(a.name);
+  std::string text = fit::describe_axf(lib.load(a.name));
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  say(text);
+  say(fmt::format("  library file {} (sha256 {}), added {}", e.file, e.sha256, e.added_utc));
+  return kExitOk;
+}
+
+int run_remove(const LibraryArgs& a) {
+  fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
+  lib.remove(a.name);
+  say(fmt::format("removed '{}' from {}", a.name, lib.dir().string()));
+  return kExitOk;
+}
+
+int run_export(const LibraryArgs& a) {
+  if (a.h5.empty() == a.folder.empty()) throw UsageError("library export: give exactly one of --h5 FILE or --folder DIR");
+  const fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
+  if (!a.h5.empty()) {
+    lib.export_h5(a.h5);
+    say(fmt::format("wrote {} ({} paints)", a.h5, lib.list().size()));
+  } else {
+    const auto files = lib.export_folder(a.folder, a.overwrite);
+    say(fmt::format("wrote {} AxF-like files to {}", files.size(), a.folder));
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void register_library_commands(CLI::App& app) {
+  CLI::App* group = subcommand_group(
+      app, "library",
+      "Paint libraries: a folder of AxF-like files with index.json (docs/library.md). Changes are atomic: a crash "
+      "leaves the old or the new index.");
+  auto args = std::make_shared<LibraryArgs>();
+  auto dir_option = [&](CLI::App* sub) {
+    sub->add_option("--dir", args->dir, "Library folder")->required();
+  };
+
+  CLI::App* add = group->add_subcommand(
+      "add", "Add a paint (an AxF-like .axf.h5, a fit.json or a paint .toml); creates the library if needed");
+  dir_option(add);
+  add->add_option("FILE", args->file, "paint to add")->required();
+  add->add_option("--name", args->name, "Name in the library (default: the paint's name)");
+  add->add_flag("--replace", args->replace, "Replace a paint of the same name (refused otherwise)");
+  on_run(add, [args] { return run_add(*args); });
+
+  CLI::App* list = group->add_subcommand("list", "List the paints: name, date, model, fit residual");
+  dir_option(list);
+  list->add_flag("--json", args->json, "Print the index entries as JSON");
+  on_run(list, [args] { return run_list(*args); });
+
+  CLI::App* show = group->add_subcommand("show", "Print one paint: parameters, standard deviations, fit quality, provenance");
+  dir_option(show);
+  show->add_option("NAME", args->name, "paint name")->required();
+  on_run(show, [args] { return run_show(*args); });
+
+  CLI::App* remove = group->add_subcommand("remove", "Remove a paint (the index first, then its file)");
+  dir_option(remove);
+  remove->add_option("NAME", args->name, "paint name")->required();
+  on_run(remove, [args] { return run_remove(*args); });
+
+  CLI::App* exp = group->add_subcommand(
+      "export", "Write the whole library as one HDF5 file (--h5) or as a folder of AxF-like files (--folder)");
+  dir_option(exp);
+  exp->add_option("--h5", args->h5, "One HDF5 file with every paint under /paints/<name>");
+  exp->add_option("--folder", args->folder, "A folder of <name>.axf.h5 files");
+  exp->add_flag("--overwrite", args->overwrite, "--folder: replace existing files");
+  on_run(exp, [args] { return run_export(*args); });
+}
+
+}  // namespace paintlab::app

@@ -1,0 +1,127 @@
+// paintlab render PAINT --out preview.png [--env ENV.exr] [--hdr FILE.exr] [...]
+// paintlab render PAINT --out compare.png --compare SESSION [--angle DEG] [--calib DIR]
+// (docs/axf-like.md "Previews")
+#include <cmath>
+#include <filesystem>
+#include <fmt/format.h>
+#include <limits>
+#include <spdlog/spdlog.h>
+
+#include "cli.h"
+#include "export_support.h"
+#include "paintlab/acquisition/session.h"
+#include "paintlab/brdf/paint.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/geometry.h"
+#include "paintlab/core/image_io.h"
+#include "paintlab/fitting/preview.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::app {
+
+namespace {
+
+struct RenderArgs {
+  std::string paint;
+  std::string out;
+  std::string env;
+  double env_intensity = 1.0;
+  bool no_point_light = false;
+  int size = 512;
+  double azimuth_deg = 40;
+  double elevation_deg = 25;
+  double exposure = 0;
+  int samples = 32;
+  std::string hdr;
+  std::string compare;
+  double angle_deg = 60;
+  std::string calib;
+};
+
+int run_compare(const RenderArgs& a, const brdf::Brdf& model, const std::string& paint_name) {
+  const acq::SessionDir session = acq::SessionDir::open(a.compare);
+  const auto entries = session.finished_entries();
+  if (entries.empty()) throw DataError(a.compare + ": the session has no finished light position");
+  // The finished position nearest the requested angle.
+  const acq::JournalEntry* best = &entries.front();
+  for (const auto& e : entries)
+    if (std::abs(angle_diff_deg(e.angle_deg, a.angle_deg)) < std::abs(angle_diff_deg(best->angle_deg, a.angle_deg)))
+      best = &e;
+  const calib::RigCalibration cal =
+      session_calibration(session, a.calib.empty() ? std::nullopt : std::optional<fs::path>(a.calib));
+  const ExrImage measured = read_exr(session.dir() / best->file);
+  fit::CompareOptions o;
+  o.tone.exposure = a.exposure;
+  const fit::Comparison c = fit::render_comparison(model, cal, measured, best->angle_deg, o);
+  write_png8(a.out, c.png);
+  if (!a.hdr.empty()) {
+    ImageF both(2 * c.measured.width(), c.measured.height(), 3);
+    for (int y = 0; y < c.measured.height(); ++y)
+      for (int x = 0; x < c.measured.width(); ++x)
+        for (int ch = 0; ch < 3; ++ch) {
+          both.at(x, y, ch) = c.measured.at(x, y, ch);
+          both.at(c.measured.width() + x, y, ch) = c.model.at(x, y, ch);
+        }
+    fit::write_exr_rgb(a.hdr, both, "measured | model, linear DN/s");
+  }
+  say(fmt::format("compared paint '{}' with {} at table angle {:.1f} deg ({})", paint_name, a.compare,
+                  best->angle_deg, best->file));
+  say(fmt::format("  {} sphere pixels: RMS log ratio model/measured {:.4f}, median ratio {:.4f}", c.pixels_used,
+                  c.log_rms, c.median_ratio));
+  say(fmt::format("wrote {} (measured | model | difference; exposure {:.4g})", a.out, c.exposure));
+  return kExitOk;
+}
+
+int run_render(const RenderArgs& a) {
+  const fit::AxfPaint paint = load_any_paint(a.paint);
+  const auto model = brdf::make_brdf(paint.paint_spec());
+  if (!a.compare.empty()) return run_compare(a, *model, paint.name);
+  fit::PreviewOptions o;
+  o.size_px = a.size;
+  o.light_azimuth_deg = a.azimuth_deg;
+  o.light_elevation_deg = a.elevation_deg;
+  o.point_light = !a.no_point_light;
+  if (!a.env.empty()) o.environment = a.env;
+  o.environment_intensity = a.env_intensity;
+  o.environment_samples = a.samples;
+  o.tone.exposure = a.exposure;
+  if (!o.point_light && !o.environment) throw UsageError("--no-point-light needs --env ENV.exr (nothing would light the sphere)");
+  const fit::Preview p = fit::render_preview(*model, o);
+  write_png8(a.out, p.png);
+  if (!a.hdr.empty()) fit::write_exr_rgb(a.hdr, p.linear, "preview of " + paint.name + ", linear radiance");
+  say(fmt::format("wrote {} ({} x {} px, paint '{}', exposure {:.4g}, peak [{:.4g}, {:.4g}, {:.4g}] at ({}, {}))", a.out,
+                  o.size_px, o.size_px, paint.name, p.exposure, p.peak[0], p.peak[1], p.peak[2], p.peak_x, p.peak_y));
+  return kExitOk;
+}
+
+}  // namespace
+
+void register_render_commands(CLI::App& app) {
+  auto args = std::make_shared<RenderArgs>();
+  CLI::App* r = app.add_subcommand(
+      "render",
+      "Render a preview of a paint: a sphere lit by a point light (and an HDR environment map with --env), "
+      "tone-mapped to sRGB PNG (linear x exposure, clipped, sRGB curve; automatic exposure puts the 99.5th "
+      "percentile at white).\nWith --compare SESSION: the measured HDR image at the light angle nearest --angle, "
+      "the model rendered in the calibrated rig geometry, and their difference, side by side.");
+  r->add_option("PAINT", args->paint, "paint: .axf.h5, fit.json or paint .toml")->required();
+  r->add_option("--out", args->out, "PNG to write")->required();
+  r->add_option("--env", args->env, "Equirectangular HDR environment map (.exr, 2:1)");
+  r->add_option("--env-intensity", args->env_intensity, "Multiplies the environment map")->capture_default_str();
+  r->add_flag("--no-point-light", args->no_point_light, "Light by the environment map only");
+  r->add_option("--size", args->size, "Image size in pixels (square)")->capture_default_str();
+  r->add_option("--light-azimuth", args->azimuth_deg, "Point light azimuth from the camera, deg (towards the right)")
+      ->capture_default_str();
+  r->add_option("--light-elevation", args->elevation_deg, "Point light elevation, deg (upwards)")->capture_default_str();
+  r->add_option("--exposure", args->exposure, "Tone-mapping exposure (0 = automatic)")->capture_default_str();
+  r->add_option("--samples", args->samples, "Environment samples per strategy and pixel")->capture_default_str();
+  r->add_option("--hdr", args->hdr, "Also write the linear image as EXR");
+  r->add_option("--compare", args->compare, "Session folder to compare with");
+  r->add_option("--angle", args->angle_deg, "--compare: table angle, deg (the nearest finished position)")
+      ->capture_default_str();
+  r->add_option("--calib", args->calib, "--compare: calibration folder (default: the session's rig's)");
+  on_run(r, [args] { return run_render(*args); });
+}
+
+}  // namespace paintlab::app

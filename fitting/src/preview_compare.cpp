@@ -1,0 +1,126 @@
+// The measured-versus-model comparison of preview.h (render_comparison).
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "paintlab/core/error.h"
+#include "paintlab/fitting/preview.h"
+
+namespace paintlab::fit {
+
+using brdf::Rgb;
+using brdf::Vec3;
+
+void CompareOptions::check() const {
+  auto fail = [](const std::string& rule) { throw DataError("CompareOptions::" + rule); };
+  if (!(margin_px >= 0 && margin_px <= 1000)) fail(fmt::format("margin_px = {}. Violated constraint: [0, 1000]", margin_px));
+  if (!(min_cos >= 0 && min_cos < 1)) fail(fmt::format("min_cos = {}. Violated constraint: [0, 1)", min_cos));
+  if (!(signal_floor_rel >= 0 && signal_floor_rel < 1))
+    fail(fmt::format("signal_floor_rel = {}. Violated constraint: [0, 1)", signal_floor_rel));
+  if (!(diff_range_log2 > 0)) fail(fmt::format("diff_range_log2 = {}. Violated constraint: > 0", diff_range_log2));
+}
+
+Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration& cal, const ExrImage& hdr,
+                             double angle_deg, const CompareOptions& o) {
+  o.check();
+  cal.require({calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile});
+  const calib::CameraModel& cam = cal.camera();
+  if (hdr.width != cam.width_px || hdr.height != cam.height_px)
+    throw DataError(fmt::format("measured image is {} x {} but the calibrated camera is {} x {}", hdr.width, hdr.height,
+                                cam.width_px, cam.height_px));
+  const bool rgb = hdr.find("R") && hdr.find("G") && hdr.find("B");
+  if (!rgb && !hdr.find("Y")) throw DataError("measured image: needs channels R, G, B or Y");
+  const ImageF* planes[3] = {rgb ? &hdr.plane("R") : &hdr.plane("Y"), rgb ? &hdr.plane("G") : &hdr.plane("Y"),
+                             rgb ? &hdr.plane("B") : &hdr.plane("Y")};
+  const ImageF* valid = hdr.find("valid");
+
+  // Crop: the sphere's projection (centre +- its apparent radius, generously) plus margin.
+  const calib::SphereFit& sphere = *cal.sphere();
+  const Vec2 c_px = cam.project(sphere.centre_cam_m);
+  const double r_px = 1.25 * std::max(cam.fx(), cam.fy()) * sphere.radius_m / sphere.centre_cam_m.z() + o.margin_px;
+  const int x0 = std::clamp(static_cast<int>(std::floor(c_px.x() - r_px)), 0, hdr.width - 1);
+  const int x1 = std::clamp(static_cast<int>(std::ceil(c_px.x() + r_px)), 0, hdr.width - 1);
+  const int y0 = std::clamp(static_cast<int>(std::floor(c_px.y() - r_px)), 0, hdr.height - 1);
+  const int y1 = std::clamp(static_cast<int>(std::ceil(c_px.y() + r_px)), 0, hdr.height - 1);
+  const int W = x1 - x0 + 1, H = y1 - y0 + 1;
+
+  Comparison out;
+  out.crop_x = x0;
+  out.crop_y = y0;
+  out.measured = ImageF(W, H, 3, 0.0f);
+  out.model = ImageF(W, H, 3, 0.0f);
+  std::vector<std::uint8_t> on_sphere(static_cast<std::size_t>(W) * H, 0), geometry_ok = on_sphere;
+  const calib::LightModel light = cal.light_model();
+  const Vec3 led = light.led_position_cam(angle_deg);
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, H), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < W; ++x) {
+        const int cx = x0 + x, cy = y0 + y;
+        for (int c = 0; c < 3; ++c) out.measured.at(x, y, c) = planes[c]->at(cx, cy);
+        const auto sp = cal.sphere_point_at(Vec2(cx, cy));
+        if (!sp) continue;
+        const std::size_t i = static_cast<std::size_t>(y) * W + x;
+        on_sphere[i] = 1;
+        const Vec3 wi = (led - sp->point).normalized();
+        const double per_rate = cal.brdf(1.0, angle_deg, *sp);  // 1 / (scale E)
+        if (!(per_rate > 0) || !std::isfinite(per_rate)) continue;
+        Rgb f = eval_world(brdf, sp->normal, wi, sp->to_camera);
+        if (!rgb) f = Rgb::Constant(f.mean());
+        for (int c = 0; c < 3; ++c) out.model.at(x, y, c) = static_cast<float>(f[c] / per_rate);
+        const bool valid_px = !valid || valid->at(cx, cy) > 0.5f;
+        geometry_ok[i] = valid_px && sp->normal.dot(wi) >= o.min_cos && sp->normal.dot(sp->to_camera) >= o.min_cos;
+      }
+  });
+
+  out.exposure = o.tone.exposure > 0 ? o.tone.exposure : auto_exposure(out.measured, on_sphere, o.tone.percentile);
+  const double floor = o.signal_floor_rel / out.exposure;
+  out.used.assign(static_cast<std::size_t>(W) * H, 0);
+  std::vector<double> log_ratio;
+  ImageU8 diff(W, H, 3, 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * W + x;
+      if (!on_sphere[i]) continue;
+      double meas = 0, model = 0;
+      for (int c = 0; c < 3; ++c) {
+        meas += out.measured.at(x, y, c) / 3.0;
+        model += out.model.at(x, y, c) / 3.0;
+      }
+      if (!geometry_ok[i] || !(meas >= floor) || !(model > 0) || !std::isfinite(meas)) {
+        for (int c = 0; c < 3; ++c) diff.at(x, y, c) = 40;
+        continue;
+      }
+      out.used[i] = 1;
+      const double l = std::log(model / meas);
+      log_ratio.push_back(l);
+      const double t = std::min(1.0, std::abs(l / std::log(2.0)) / o.diff_range_log2);
+      diff.at(x, y, l > 0 ? 0 : 2) = srgb_encode(t);
+    }
+  out.pixels_used = log_ratio.size();
+  if (!log_ratio.empty()) {
+    double ss = 0;
+    for (double l : log_ratio) ss += l * l;
+    out.log_rms = std::sqrt(ss / static_cast<double>(log_ratio.size()));
+    auto mid = log_ratio.begin() + static_cast<std::ptrdiff_t>(log_ratio.size() / 2);
+    std::nth_element(log_ratio.begin(), mid, log_ratio.end());
+    out.median_ratio = std::exp(*mid);
+  }
+
+  const ImageU8 a = tone_map(out.measured, out.exposure), b = tone_map(out.model, out.exposure);
+  const int gap = 4;
+  out.png = ImageU8(3 * W + 2 * gap, H, 3, 255);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (int c = 0; c < 3; ++c) {
+        out.png.at(x, y, c) = a.at(x, y, c);
+        out.png.at(W + gap + x, y, c) = b.at(x, y, c);
+        out.png.at(2 * (W + gap) + x, y, c) = diff.at(x, y, c);
+      }
+  return out;
+}
+
+}  // namespace paintlab::fit
