@@ -1,9 +1,13 @@
 #include "paintlab/sim/peers/gige_camera.h"
 
 #include <arv.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 #include <cmath>
 #include <cstdlib>
 #include <fmt/format.h>
@@ -11,6 +15,7 @@
 
 #include "paintlab/core/error.h"
 #include "paintlab/core/log.h"
+#include <spdlog/spdlog.h>
 
 namespace paintlab::sim {
 
@@ -226,6 +231,7 @@ struct GigeCamera::Impl {
   ArvGvFakeCamera* gv = nullptr;
   ArvFakeCamera* fake = nullptr;
   std::string xml_path;
+  int lock_fd = -1;  // holds the machine-wide lock of 127.0.0.1:3956 while serving
 
   static void on_fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain_raw, ArvPixelFormat format) {
     static_cast<GigeCamera*>(self)->fill(buffer, exposure_us, gain_raw, format);
@@ -239,9 +245,46 @@ GigeCamera::GigeCamera(GigeCameraOptions options, Clock& clock, FrameSource sour
 
 GigeCamera::~GigeCamera() { stop(); }
 
+namespace {
+
+// GigE Vision control (GVCP) has one well-known port, 3956, and two fake cameras on
+// 127.0.0.1 would both bind it and answer each other's clients. One machine-wide lock file
+// serialises them: a second simulated camera (another test, another `paintlab` on a sim
+// rig) waits for the first to stop instead of failing in the middle of a protocol exchange.
+int lock_gige_port() {
+  const char* path = "/tmp/paintlab-sim-gige-3956.lock";
+  int fd = ::open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+  if (fd < 0) return -1;  // no lock possible (read-only /tmp): serve unguarded, as before
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(20);
+  bool said = false;
+  while (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    if (errno != EWOULDBLOCK && errno != EINTR) break;
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::close(fd);
+      throw DeviceError(kName, fmt::format("another simulated camera held 127.0.0.1:3956 for 20 minutes ({})", path),
+                        true);
+    }
+    if (!said) {
+      spdlog::info("sim camera: waiting for another simulated camera on this machine to stop (127.0.0.1:3956)");
+      said = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return fd;
+}
+
+}  // namespace
+
 void GigeCamera::start() {
   std::lock_guard lock(mutex_);
   if (impl_->gv) return;
+  const int lock_fd = lock_gige_port();
+  struct Unlock {
+    int fd;
+    ~Unlock() {
+      if (fd >= 0) ::close(fd);
+    }
+  } unlock{lock_fd};
   // The fake reads its XML from a file when it is created.
   char path[] = "/tmp/paintlab-sim-camera-XXXXXX.xml";
   int fd = mkstemps(path, 4);
@@ -281,6 +324,8 @@ void GigeCamera::start() {
   arv_fake_camera_set_trigger_frequency(fake, 1000.0);
   impl_->gv = gv;
   impl_->fake = fake;
+  impl_->lock_fd = lock_fd;
+  unlock.fd = -1;
 }
 
 void GigeCamera::stop() {
@@ -293,6 +338,11 @@ void GigeCamera::stop() {
   }
   // Unref joins the fake's threads (which may be in fill(): mutex_ must be free).
   if (gv) g_object_unref(gv);
+  std::lock_guard lock(mutex_);
+  if (impl_->lock_fd >= 0 && !impl_->gv) {
+    ::close(impl_->lock_fd);  // the port is free: the next simulated camera may serve
+    impl_->lock_fd = -1;
+  }
 }
 
 bool GigeCamera::running() const {
