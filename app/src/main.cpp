@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
   app::register_export_commands(app);
   app::register_library_commands(app);
   app::register_render_commands(app);
+  app::register_demo_commands(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,373 @@
+// paintlab demo --out DIR [--paint PAINT.toml] [--quick] [--lobes N]
+//
+// The simulated rig end to end, as a technician would run it: the demo writes DIR/rig.toml
+// (the built-in simulated rig) and then runs the same `paintlab` commands a technician
+// types, each as its own process, printing each command before it runs:
+//   calibrate all --capture, check --capture, measure, fit, export (AxF-like + MERL),
+//   library add, render (preview and measured-vs-model comparison).
+// Then it compares what came out with the simulator's truth (the paint, the camera, the
+// sphere, the LED, the response curve), prints a summary table and writes DIR/summary.json
+// in the shape of DESIGN.md's contract.
+#include <fmt/format.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstring>
+#include <stdexcept>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "cli.h"
+#include "paintlab/brdf/paint.h"
+#include "paintlab/calibration/record.h"
+#include "paintlab/calibration/response.h"
+#include "paintlab/calibration/rig_calibration.h"
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/core/config.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/json.h"
+#include "paintlab/core/log.h"
+#include "paintlab/core/rig.h"
+#include "paintlab/sim/config.h"
+#include "paintlab/sim/sensor.h"
+#include "paintlab/sim/world.h"
+#include "resources.h"
+
+extern char** environ;
+
+namespace paintlab::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kMarker = ".paintlab-demo";
+
+struct DemoArgs {
+  std::string out;
+  std::string paint;
+  bool quick = false;
+  int lobes = 0;
+  bool keep_going = false;
+};
+
+// Sets `key = value` in `[section]` of a TOML text, keeping the line's comment. The key
+// must exist (the embedded rig is ours: a miss is a programming error, said plainly).
+void set_key(std::string& text, const std::string& section, const std::string& key, const std::string& value) {
+  std::istringstream in(text);
+  std::ostringstream out;
+  std::string line, current;
+  bool done = false;
+  while (std::getline(in, line)) {
+    std::string trimmed = line.substr(0, line.find('#'));
+    trimmed.erase(0, trimmed.find_first_not_of(" \t"));
+    if (!trimmed.empty() && trimmed.front() == '[') {
+      const auto close = trimmed.find(']');
+      current = trimmed.substr(1, close == std::string::npos ? std::string::npos : close - 1);
+    } else if (!done && current == section && trimmed.rfind(key, 0) == 0) {
+      const std::string rest = trimmed.substr(key.size());
+      if (rest.find_first_not_of(" \t") != std::string::npos && rest[rest.find_first_not_of(" \t")] == '=') {
+        const auto hash = line.find('#');
+        std::string comment = hash == std::string::npos ? std::string() : "   " + line.substr(hash);
+        line = key + " = " + value + comment;
+        done = true;
+      }
+    }
+    out << line << '\n';
+  }
+  if (!done) throw std::logic_error(fmt::format("demo: the built-in rig has no key {} in [{}]", key, section));
+  text = out.str();
+}
+
+// The built-in simulated rig. Quick: half the resolution (same field of view: pixels twice
+// as large, intrinsics halved), light every 10 degrees, 8 exposures.
+std::string demo_rig_text(bool quick) {
+  std::string text = resources::rig_sim_toml();
+  set_key(text, "", "calibration", "\"calib\"");
+  if (!quick) return text;
+  RigConfig full = RigConfig::parse(ConfigTable::parse_string(text, "rig-sim.toml"), "rig-sim.toml");
+  const sim::SimConfig truth = sim::SimConfig::from_rig(full);
+  const double s = 0.5;
+  auto num = [](double v) { return fmt::format("{:.6g}", v); };
+  set_key(text, "geometry", "image_width_px", std::to_string(full.geometry.image_width_px / 2));
+  set_key(text, "geometry", "image_height_px", std::to_string(full.geometry.image_height_px / 2));
+  set_key(text, "geometry", "pixel_size_um", num(full.geometry.pixel_size_um * 2));
+  const Mat3 K = truth.camera.K();
+  set_key(text, "sim.camera", "fx_px", num(K(0, 0) * s));
+  set_key(text, "sim.camera", "fy_px", num(K(1, 1) * s));
+  // Pixel centres: x' + 0.5 = (x + 0.5) / 2.
+  set_key(text, "sim.camera", "cx_px", num((K(0, 2) + 0.5) * s - 0.5));
+  set_key(text, "sim.camera", "cy_px", num((K(1, 2) + 0.5) * s - 0.5));
+  set_key(text, "sim.camera", "psf_sigma_px", num(truth.camera.psf_sigma_px * s));
+  set_key(text, "plan", "angle_step_deg", "10");
+  set_key(text, "plan.bracket", "count", "8");
+  return "# paintlab demo --quick: the built-in simulated rig at half resolution, light every 10 deg.\n" + text;
+}
+
+// The paint the demo measures: a file, or the built-in silver metallic.
+struct DemoPaint {
+  brdf::PaintSpec spec;
+  std::string toml_text;
+};
+
+DemoPaint demo_paint(const std::string& file) {
+  DemoPaint p;
+  if (file.empty()) {
+    p.toml_text = resources::paint_silver_metallic_toml();
+    p.spec = brdf::parse_paint(ConfigTable::parse_string(p.toml_text, "silver-metallic.toml"));
+  } else {
+    p.spec = brdf::load_paint_file(file);
+    std::ifstream in(file);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    p.toml_text = ss.str();
+  }
+  if (p.spec.merl()) throw UsageError("demo --paint: a MERL table cannot be simulated; give an analytic paint");
+  return p;
+}
+
+fs::path self_exe() {
+  std::error_code ec;
+  fs::path p = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) throw IoError("/proc/self/exe", "demo: cannot find the paintlab executable: " + ec.message());
+  return p;
+}
+
+volatile std::sig_atomic_t g_child = 0;
+
+// Runs `paintlab ARGS...` as a child (output goes to the terminal), returns its exit code
+// and adds its wall time to `seconds`.
+int run_step(const std::vector<std::string>& args, double& seconds) {
+  std::string shown = "paintlab";
+  for (const auto& a : args) shown += " " + (a.find(' ') == std::string::npos ? a : "'" + a + "'");
+  say("");
+  say("$ " + shown);
+  const std::string exe = self_exe().string();
+  std::vector<char*> argv{const_cast<char*>(exe.c_str())};
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const auto t0 = std::chrono::steady_clock::now();
+  pid_t pid = 0;
+  if (int rc = posix_spawn(&pid, exe.c_str(), nullptr, nullptr, argv.data(), environ); rc != 0)
+    throw IoError(exe, "demo: cannot start it", rc);
+  g_child = pid;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) throw IoError(exe, "demo: waiting for " + shown, errno);
+  }
+  g_child = 0;
+  seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return WEXITSTATUS(status);
+}
+
+// Ctrl-C reaches the child (same process group) which stops safely; the demo just waits.
+void ignore_interrupts_while_children_run() {
+  struct sigaction sa {};
+  sa.sa_handler = SIG_IGN;
+  sigaction(SIGINT, &sa, nullptr);
+  sa.sa_handler = [](int) {
+    if (g_child > 0) kill(static_cast<pid_t>(g_child), SIGTERM);
+  };
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+// The calibration's errors against the simulator's truth.
+Json calibration_errors(const RigConfig& rig, const sim::SimConfig& truth) {
+  Json out = Json::object();
+  calib::RigCalibration cal = calib::RigCalibration::load(rig);
+  const Mat3 K = truth.camera.K();
+  if (cal.intrinsics()) {
+    const calib::CameraModel& cam = cal.intrinsics()->camera;
+    out["reprojection_rms_px"] = cal.intrinsics()->rms_px;
+    out["focal_error_rel"] = (cam.fx() - K(0, 0)) / K(0, 0);
+    out["principal_point_error_px"] = std::hypot(cam.cx() - K(0, 2), cam.cy() - K(1, 2));
+  }
+  const sim::SimWorld world(truth);
+  const Vec3 centre_true = world.sphere_centre_cam();
+  if (cal.sphere()) out["sphere_centre_error_mm"] = (cal.sphere()->centre_cam_m - centre_true).norm() * 1e3;
+  if (cal.light() && cal.sphere()) {
+    // Direction from the sphere centre to the LED, calibrated vs true, worst over the plan.
+    double worst = 0;
+    for (double a : rig.plan.angles_deg()) {
+      const Vec3 c = (cal.led_position_cam(a) - cal.sphere()->centre_cam_m).normalized();
+      const Vec3 t = (world.led_position_cam(a) - centre_true).normalized();
+      worst = std::max(worst, std::acos(std::clamp(c.dot(t), -1.0, 1.0)) * 180.0 / M_PI);
+    }
+    out["light_angle_error_deg"] = worst;
+  }
+  if (cal.has(calib::kResponseFile)) {
+    // g(u) against the true inverse response over the curve's used range, after one scale
+    // (the response is known up to a factor; the absolute scale comes from scale.json).
+    const calib::ResponseCurve g = calib::ResponseCurve::load(cal.path(calib::kResponseFile));
+    const sim::ResponseCurve r(truth.sensor.response_poly);
+    const double shift = std::ldexp(1.0, g.bit_depth - truth.sensor.adc_bits);
+    const double span = (truth.sensor.adc_max_dn() - truth.sensor.black_level_dn) * shift;
+    const double lo = std::max(g.window.floor_dn, 0.02 * span), hi = g.window.u_saturation();
+    double sgt = 0, sgg = 0;
+    std::vector<std::pair<double, double>> pts;
+    for (int i = 0; i <= 200; ++i) {
+      const double u = lo + (hi - lo) * i / 200.0;
+      const double gv = g.to_linear(0, u), tv = r.inverse(u / span) * span;
+      pts.emplace_back(gv, tv);
+      sgt += gv / tv;
+      sgg += gv * gv / (tv * tv);
+    }
+    const double k = sgt / sgg;
+    double worst = 0;
+    for (auto [gv, tv] : pts) worst = std::max(worst, std::abs(k * gv / tv - 1.0));
+    out["response_error_rel"] = worst;
+  }
+  return out;
+}
+
+std::string rgb(const Json& a) {
+  if (!a.is_array()) return "-";
+  std::string s;
+  for (const auto& v : a) s += fmt::format("{}{:.4f}", s.empty() ? "" : " ", v.get<double>());
+  return s;
+}
+
+void print_summary(const Json& s) {
+  say("");
+  say(fmt::format("== paintlab demo: {} ==", s["paint"].get<std::string>()));
+  const Json& truth = s["truth"];
+  const Json& fit = s["fit"];
+  say(fmt::format("{:<14} {:<28} {:<28} {}", "parameter", "truth", "fit", "std dev"));
+  const Json& sd = fit.contains("stddev") ? fit["stddev"] : Json::object();
+  say(fmt::format("{:<14} {:<28} {:<28} {}", "kd", rgb(truth.value("kd", Json())), rgb(fit.value("kd", Json())),
+                  sd.contains("kd") ? rgb(sd["kd"]) : "-"));
+  const std::size_t nt = truth.contains("lobes") ? truth["lobes"].size() : 0;
+  const std::size_t nf = fit.contains("lobes") ? fit["lobes"].size() : 0;
+  for (std::size_t l = 0; l < std::max(nt, nf); ++l) {
+    auto field = [&](const Json& o, std::size_t i, const char* k) -> Json {
+      return o.contains("lobes") && i < o["lobes"].size() ? o["lobes"][i].value(k, Json()) : Json();
+    };
+    auto num = [](const Json& v) { return v.is_number() ? fmt::format("{:.4f}", v.get<double>()) : std::string("-"); };
+    say(fmt::format("{:<14} {:<28} {:<28} {}", fmt::format("lobe {} ks", l + 1), rgb(field(truth, l, "ks")),
+                    rgb(field(fit, l, "ks")), rgb(field(sd, l, "ks"))));
+    for (const char* k : {"m", "r"})
+      say(fmt::format("{:<14} {:<28} {:<28} {}", fmt::format("lobe {} {}", l + 1, k), num(field(truth, l, k)),
+                      num(field(fit, l, k)), num(field(sd, l, k))));
+  }
+  if (fit.contains("residual"))
+    say(fmt::format("residual: log-RMS {:.4f} over {} bins", fit["residual"].value("log_rms", 0.0),
+                    fit["residual"].value("bins_used", 0)));
+  say("calibration against the simulator's truth:");
+  for (const auto& [k, v] : s["calibration"].items()) say(fmt::format("  {:<26} {:.5g}", k, v.get<double>()));
+  say("timings (s):");
+  for (const auto& [k, v] : s["timings_s"].items()) say(fmt::format("  {:<26} {:.1f}", k, v.get<double>()));
+  say("files:");
+  for (const auto& [k, v] : s["files"].items()) say(fmt::format("  {:<26} {}", k, v.get<std::string>()));
+}
+
+int run_demo(const DemoArgs& a) {
+  if (a.out.empty()) throw UsageError("demo: --out DIR is required");
+  if (a.lobes < 0 || a.lobes > 3) throw UsageError("demo --lobes: 1..3 (0: as many as the paint has, at most 3)");
+  const fs::path dir = fs::absolute(a.out);
+  const DemoPaint paint = demo_paint(a.paint);
+  const std::string name = paint.spec.name;
+  if (fs::exists(dir) && !fs::is_directory(dir)) throw UsageError(fmt::format("demo --out {}: not a folder", dir.string()));
+  if (fs::exists(dir) && !fs::is_empty(dir) && !fs::exists(dir / kMarker))
+    throw UsageError(fmt::format("demo --out {}: the folder is not empty and holds no earlier demo; give a new folder",
+                                 dir.string()));
+  fs::create_directories(dir);
+  // An earlier demo's results are replaced as a whole (never mixed with this run's).
+  for (const char* old : {"calib", "session", "library", "summary.json"}) fs::remove_all(dir / old);
+  write_file_atomic(dir / kMarker, "written by paintlab demo; a later demo may replace this folder's contents\n");
+
+  const fs::path rig_file = dir / "rig.toml";
+  const fs::path paint_file = dir / (name + ".toml");
+  write_file_atomic(rig_file, demo_rig_text(a.quick));
+  write_file_atomic(paint_file, paint.toml_text);
+  const RigConfig rig = RigConfig::load(rig_file);
+  const sim::SimConfig truth = sim::SimConfig::from_rig(rig);
+  say(fmt::format("paintlab demo{}: the simulated rig ({}x{} px, {} light positions, {} exposures) measures {}",
+                  a.quick ? " --quick" : "", rig.geometry.image_width_px, rig.geometry.image_height_px,
+                  rig.plan.angles_deg().size(), rig.plan.exposures_s.size(), name));
+  say("rig: " + rig_file.string() + ", results in " + dir.string());
+
+  ignore_interrupts_while_children_run();
+  const auto t_start = std::chrono::steady_clock::now();
+  double t_cal = 0, t_check = 0, t_measure = 0, t_fit = 0, t_export = 0;
+  const std::string R = rig_file.string();
+  const fs::path session = dir / "session";
+  const fs::path fit_file = dir / "fit.json";
+  const fs::path axf = dir / (name + ".axf.h5");
+  const fs::path merl = dir / (name + ".binary");
+  const fs::path preview = dir / "preview.png";
+  const fs::path compare = dir / "compare.png";
+  const fs::path library = dir / "library";
+  const int lobes = a.lobes > 0 ? a.lobes
+                                : std::clamp(static_cast<int>(paint.spec.cook_torrance()
+                                                                  ? paint.spec.cook_torrance()->lobes.size()
+                                                                  : 2),
+                                             1, 3);
+  auto step = [&](const std::vector<std::string>& args, double& t, const char* what) {
+    const int rc = run_step(args, t);
+    if (rc != 0) {
+      throw JobError(fmt::format("demo: {} failed (exit {}); the files so far are in {}", what, rc, dir.string()));
+    }
+  };
+  step({"calibrate", "all", "--rig", R, "--capture"}, t_cal, "calibration");
+  {
+    const int rc = run_step({"check", "--rig", R, "--capture"}, t_check);
+    if (rc != 0 && !a.keep_going) {
+      say("demo: the rig check failed (see the table above); --keep-going measures anyway");
+      return kExitFailed;
+    }
+  }
+  step({"measure", "--rig", R, "--sample", name, "--out", session.string(), "--sim-paint", paint_file.string(),
+        "--notes", "paintlab demo"},
+       t_measure, "the measurement");
+  step({"fit", session.string(), "--model", "cook-torrance", "--lobes", std::to_string(lobes), "--name", name, "--out",
+        fit_file.string()},
+       t_fit, "the fit");
+  step({"export", fit_file.string(), "--axf", axf.string()}, t_export, "the AxF-like export");
+  step({"export", session.string(), "--merl", merl.string()}, t_export, "the MERL export");
+  step({"axf", "validate", axf.string()}, t_export, "validating the AxF-like file");
+  step({"library", "add", "--dir", library.string(), axf.string(), "--replace"}, t_export, "adding to the library");
+  step({"render", axf.string(), "--out", preview.string()}, t_export, "the preview");
+  step({"render", axf.string(), "--out", compare.string(), "--compare", session.string()}, t_export,
+       "the measured-vs-model comparison");
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+
+  Json fit = read_json_file(fit_file);
+  Json summary;
+  summary["paint"] = name;
+  summary["truth"] = brdf::to_json(paint.spec);
+  summary["fit"] = fit;
+  summary["calibration"] = calibration_errors(rig, truth);
+  summary["timings_s"] = {{"calibrate", t_cal + t_check}, {"measure", t_measure}, {"fit", t_fit},
+                          {"export", t_export},          {"total", total}};
+  summary["files"] = {{"axf", axf.string()},         {"merl", merl.string()},       {"fit", fit_file.string()},
+                      {"preview", preview.string()}, {"compare", compare.string()}, {"session", session.string()},
+                      {"library", library.string()}, {"rig", R}};
+  summary["quick"] = a.quick;
+  write_json_file(dir / "summary.json", summary);
+  print_summary(summary);
+  say(fmt::format("demo finished in {:.1f} s: {}", total, (dir / "summary.json").string()));
+  return kExitOk;
+}
+
+}  // namespace
+
+void register_demo_commands(CLI::App& app) {
+  auto a = std::make_shared<DemoArgs>();
+  CLI::App* d = app.add_subcommand(
+      "demo",
+      "The simulated rig end to end: calibrate, check, measure, fit, export, library, preview; prints a summary "
+      "(truth vs fit, calibration errors, timings) and writes DIR/summary.json");
+  d->add_option("--out", a->out, "Folder for everything the demo writes (new, or an earlier demo's)")->required();
+  d->add_option("--paint", a->paint, "Paint file to measure (default: the built-in silver-metallic)");
+  d->add_flag("--quick", a->quick, "Half resolution, light every 10 deg, 8 exposures (under 2 minutes)");
+  d->add_option("--lobes", a->lobes, "Cook-Torrance lobes to fit (default: the paint's, at most 3)");
+  d->add_flag("--keep-going", a->keep_going, "Measure even when the rig check fails");
+  on_run(d, [a] { return run_demo(*a); });
+}
+
+}  // namespace paintlab::app
