@@ -30,11 +30,8 @@ void warn_findings(const fit::PaintLibrary& lib) {
 }
 
 int run_add(const LibraryArgs& a) {
-  fit::AxfPaint paint = load_any_paint(a.file);
-  if (!a.name.empty()) paint.name = a.name;
-  fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, true);
-  const fit::LibraryEntry e = lib.add(paint, a.replace);
-  say(fmt::format("added '{}' to {} ({}, {})", e.name, lib.dir().string(), e.model, e.file));
+  const fit::LibraryEntry e = library_add(a.dir, a.file, a.replace, a.name);
+  say(fmt::format("added '{}' to {} ({}, {})", e.name, a.dir, e.model, e.file));
   return kExitOk;
 }
 

@@ -1,19 +1,13 @@
 // paintlab render PAINT --out preview.png [--env ENV.exr] [--hdr FILE.exr] [...]
 // paintlab render PAINT --out compare.png --compare SESSION [--angle DEG] [--calib DIR]
 // (docs/axf-like.md "Previews")
-#include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
-#include <limits>
-#include <spdlog/spdlog.h>
+#include <optional>
 
 #include "cli.h"
 #include "export_support.h"
-#include "paintlab/acquisition/session.h"
-#include "paintlab/brdf/paint.h"
 #include "paintlab/core/error.h"
-#include "paintlab/core/geometry.h"
-#include "paintlab/core/image_io.h"
 #include "paintlab/fitting/preview.h"
 
 namespace fs = std::filesystem;
@@ -39,34 +33,15 @@ struct RenderArgs {
   std::string calib;
 };
 
-int run_compare(const RenderArgs& a, const brdf::Brdf& model, const std::string& paint_name) {
-  const acq::SessionDir session = acq::SessionDir::open(a.compare);
-  const auto entries = session.finished_entries();
-  if (entries.empty()) throw DataError(a.compare + ": the session has no finished light position");
-  // The finished position nearest the requested angle.
-  const acq::JournalEntry* best = &entries.front();
-  for (const auto& e : entries)
-    if (std::abs(angle_diff_deg(e.angle_deg, a.angle_deg)) < std::abs(angle_diff_deg(best->angle_deg, a.angle_deg)))
-      best = &e;
-  const calib::RigCalibration cal =
-      session_calibration(session, a.calib.empty() ? std::nullopt : std::optional<fs::path>(a.calib));
-  const ExrImage measured = read_exr(session.dir() / best->file);
+int run_compare(const RenderArgs& a) {
   fit::CompareOptions o;
   o.tone.exposure = a.exposure;
-  const fit::Comparison c = fit::render_comparison(model, cal, measured, best->angle_deg, o);
-  write_png8(a.out, c.png);
-  if (!a.hdr.empty()) {
-    ImageF both(2 * c.measured.width(), c.measured.height(), 3);
-    for (int y = 0; y < c.measured.height(); ++y)
-      for (int x = 0; x < c.measured.width(); ++x)
-        for (int ch = 0; ch < 3; ++ch) {
-          both.at(x, y, ch) = c.measured.at(x, y, ch);
-          both.at(c.measured.width() + x, y, ch) = c.model.at(x, y, ch);
-        }
-    fit::write_exr_rgb(a.hdr, both, "measured | model, linear DN/s");
-  }
-  say(fmt::format("compared paint '{}' with {} at table angle {:.1f} deg ({})", paint_name, a.compare,
-                  best->angle_deg, best->file));
+  const ComparisonResult r =
+      render_comparison_png(a.paint, a.compare, a.angle_deg, a.out,
+                            a.calib.empty() ? std::nullopt : std::optional<fs::path>(a.calib), o,
+                            a.hdr.empty() ? std::nullopt : std::optional<fs::path>(a.hdr));
+  const fit::Comparison& c = r.comparison;
+  say(fmt::format("compared {} with {} at table angle {:.1f} deg ({})", a.paint, a.compare, r.angle_deg, r.image));
   say(fmt::format("  {} sphere pixels: RMS log ratio model/measured {:.4f}, median ratio {:.4f}", c.pixels_used,
                   c.log_rms, c.median_ratio));
   say(fmt::format("wrote {} (measured | model | difference; exposure {:.4g})", a.out, c.exposure));
@@ -74,9 +49,7 @@ int run_compare(const RenderArgs& a, const brdf::Brdf& model, const std::string&
 }
 
 int run_render(const RenderArgs& a) {
-  const fit::AxfPaint paint = load_any_paint(a.paint);
-  const auto model = brdf::make_brdf(paint.paint_spec());
-  if (!a.compare.empty()) return run_compare(a, *model, paint.name);
+  if (!a.compare.empty()) return run_compare(a);
   fit::PreviewOptions o;
   o.size_px = a.size;
   o.light_azimuth_deg = a.azimuth_deg;
@@ -87,11 +60,10 @@ int run_render(const RenderArgs& a) {
   o.environment_samples = a.samples;
   o.tone.exposure = a.exposure;
   if (!o.point_light && !o.environment) throw UsageError("--no-point-light needs --env ENV.exr (nothing would light the sphere)");
-  const fit::Preview p = fit::render_preview(*model, o);
-  write_png8(a.out, p.png);
-  if (!a.hdr.empty()) fit::write_exr_rgb(a.hdr, p.linear, "preview of " + paint.name + ", linear radiance");
-  say(fmt::format("wrote {} ({} x {} px, paint '{}', exposure {:.4g}, peak [{:.4g}, {:.4g}, {:.4g}] at ({}, {}))", a.out,
-                  o.size_px, o.size_px, paint.name, p.exposure, p.peak[0], p.peak[1], p.peak[2], p.peak_x, p.peak_y));
+  const fit::Preview p =
+      render_preview_png(a.paint, a.out, o, a.hdr.empty() ? std::nullopt : std::optional<fs::path>(a.hdr));
+  say(fmt::format("wrote {} ({} x {} px, {}, exposure {:.4g}, peak [{:.4g}, {:.4g}, {:.4g}] at ({}, {}))", a.out,
+                  o.size_px, o.size_px, a.paint, p.exposure, p.peak[0], p.peak[1], p.peak[2], p.peak_x, p.peak_y));
   return kExitOk;
 }
 

@@ -20,6 +20,7 @@
 #include "paintlab/core/version.h"
 #include "paintlab/fitting/axf_file.h"
 #include "paintlab/sim/paint.h"
+#include "export_support.h"
 #include "sim_session.h"
 #include "test_util.h"
 
@@ -345,4 +346,92 @@ TEST(PreviewCli, ExportASessionAndCompareWithIt) {
   r = test::run_paintlab("export " + session.string() + " --axf " + (tmp / "x.h5").string() + " --model phong" + calib);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_FALSE(fs::exists(tmp / "x.h5"));
+}
+
+// The functions `paintlab demo` calls (app/src/export_support.h), on one simulated session:
+// export (bin once, fit, AxF-like + MERL + fit.json), an AxF-like file from fits in memory,
+// library add, preview, comparison.
+TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
+  test_support::SimSessionOptions so;
+  so.width_px = 480;
+  so.height_px = 360;
+  so.start_deg = 30.0;
+  so.stop_deg = 150.0;
+  so.step_deg = 30.0;
+  so.sparkle = false;
+  so.noise_rel = 0.01;
+  auto sim = test_support::make_sim_session(sim::sim_paint(silver()), so);
+  test::TempDir tmp;
+  const fs::path session = make_session_folder(*sim, tmp / "session");
+
+  app::ExportRequest r;
+  r.inputs = {session};
+  r.axf = tmp / "panel.axf.h5";
+  r.merl = tmp / "panel.binary";
+  r.fit_out = tmp / "fit.json";
+  r.calib_dir = sim->calibration_dir();
+  r.lobes = 2;
+  r.threads = 2;
+  const app::ExportResult e = app::export_paint(r);
+  ASSERT_TRUE(e.paint);
+  ASSERT_EQ(e.fits.size(), 1u);
+  EXPECT_EQ(e.lines.size(), 3u);  // fit.json, AxF-like, MERL
+  EXPECT_GT(e.bin_s, 0.0);
+  EXPECT_GT(e.fit_s, 0.0);
+  EXPECT_GT(e.write_s, 0.0);
+  EXPECT_EQ(*e.paint, read_axf_file(*r.axf));
+  EXPECT_EQ(read_json_file(*r.fit_out), e.fits[0]);
+  EXPECT_EQ(e.paint->name, "panel-7");
+  EXPECT_EQ(e.paint->provenance.sample_name, "panel-7");
+  ASSERT_TRUE(e.paint->fit_quality);
+  EXPECT_EQ(e.paint->fit_quality->log_rms, e.fits[0]["residual"]["log_rms"].get<double>());
+  EXPECT_EQ(fs::file_size(*r.merl), brdf::kMerlFileBytes);
+
+  // The same fit from memory with the session's provenance and another name.
+  const acq::SessionDir sd = acq::SessionDir::open(session);
+  const AxfPaint again = app::export_axf(e.fits, app::session_provenance(sd), tmp / "again.axf.h5", "again");
+  EXPECT_EQ(again.name, "again");
+  EXPECT_EQ(again.cook_torrance, e.paint->cook_torrance);
+  EXPECT_EQ(again.fit_quality, e.paint->fit_quality);
+  EXPECT_EQ(again.provenance.session_sha256, e.paint->provenance.session_sha256);
+  EXPECT_THROW(app::export_axf({}, {}, tmp / "none.axf.h5"), UsageError);
+  EXPECT_FALSE(fs::exists(tmp / "none.axf.h5"));
+
+  // Paint files: --model / --lobes belong to a session.
+  app::ExportRequest bad;
+  bad.inputs = {*r.axf};
+  bad.axf = tmp / "bad.axf.h5";
+  bad.lobes = 1;
+  EXPECT_THROW(app::export_paint(bad), UsageError);
+  bad.lobes.reset();
+  bad.merl = tmp / "bad.binary";  // an AxF-like file holds no measurement
+  EXPECT_THROW(app::export_paint(bad), UsageError);
+  EXPECT_FALSE(fs::exists(tmp / "bad.axf.h5"));
+
+  const fit::LibraryEntry le = app::library_add(tmp / "lib", *r.axf, false);
+  EXPECT_EQ(le.name, "panel-7");
+  EXPECT_EQ(le.log_rms, e.paint->fit_quality->log_rms);
+  EXPECT_THROW(app::library_add(tmp / "lib", *r.axf, false), DataError);
+  EXPECT_NO_THROW(app::library_add(tmp / "lib", *r.axf, true));
+  EXPECT_EQ(app::library_add(tmp / "lib", tmp / "again.axf.h5", false, "panel-7b").name, "panel-7b");
+  EXPECT_EQ(PaintLibrary::open(tmp / "lib", false).list().size(), 2u);
+
+  PreviewOptions po;
+  po.size_px = 64;
+  const Preview p = app::render_preview_png(*r.axf, tmp / "preview.png", po, tmp / "preview.exr");
+  EXPECT_EQ(read_raw_image(tmp / "preview.png").pixels.width(), 64);
+  EXPECT_EQ(read_exr(tmp / "preview.exr").width, 64);
+  EXPECT_GT(p.peak.maxCoeff(), 0.0);
+
+  const app::ComparisonResult c =
+      app::render_comparison_png(*r.axf, session, 100.0, tmp / "compare.png", sim->calibration_dir());
+  EXPECT_EQ(c.angle_deg, 90.0);
+  EXPECT_EQ(c.image, acq::SessionDir::hdr_name(2));
+  EXPECT_GT(c.comparison.pixels_used, 1000u);
+  std::printf("fitted 2-lobe model vs measured at 90 deg: median ratio %.4f, log rms %.4f (%zu px); bin %.2f s, "
+              "fit %.2f s, write %.2f s\n",
+              c.comparison.median_ratio, c.comparison.log_rms, c.comparison.pixels_used, e.bin_s, e.fit_s, e.write_s);
+  EXPECT_NEAR(c.comparison.median_ratio, 1.0, 0.03);  // measured 1.0004
+  EXPECT_LT(c.comparison.log_rms, 0.15);  // measured 0.079 (2 lobes fitted to a 3-lobe paint)
+  EXPECT_EQ(read_raw_image(tmp / "compare.png").pixels.width(), c.comparison.png.width());
 }
