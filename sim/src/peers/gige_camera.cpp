@@ -1,7 +1,10 @@
 #include "paintlab/sim/peers/gige_camera.h"
 
 #include <arv.h>
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <sys/file.h>
 #include <unistd.h>
 
@@ -251,17 +254,17 @@ namespace {
 // 127.0.0.1 would both bind it and answer each other's clients. One machine-wide lock file
 // serialises them: a second simulated camera (another test, another `paintlab` on a sim
 // rig) waits for the first to stop instead of failing in the middle of a protocol exchange.
-int lock_gige_port() {
+int lock_gige_port(double timeout_s) {
   const char* path = "/tmp/paintlab-sim-gige-3956.lock";
   int fd = ::open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0666);
   if (fd < 0) return -1;  // no lock possible (read-only /tmp): serve unguarded, as before
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(20);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   bool said = false;
   while (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
     if (errno != EWOULDBLOCK && errno != EINTR) break;
     if (std::chrono::steady_clock::now() > deadline) {
       ::close(fd);
-      throw DeviceError(kName, fmt::format("another simulated camera held 127.0.0.1:3956 for 20 minutes ({})", path),
+      throw DeviceError(kName, fmt::format("another simulated camera held 127.0.0.1:3956 for {:.0f} s ({})", timeout_s, path),
                         true);
     }
     if (!said) {
@@ -270,15 +273,49 @@ int lock_gige_port() {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
+  // A program that does not take the lock (an older paintlab, arv-fake-gv-camera) may
+  // still serve the port: the fake would then start without it and never answer.
+  said = false;
+  while (true) {
+    int probe = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(3956);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const bool free = probe >= 0 && ::bind(probe, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+    if (probe >= 0) ::close(probe);
+    if (free || probe < 0) break;
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::close(fd);
+      throw DeviceError(kName, fmt::format("127.0.0.1:3956 stayed taken by another program for {:.0f} s", timeout_s), true);
+    }
+    if (!said) {
+      spdlog::info("sim camera: 127.0.0.1:3956 is taken by another program; waiting for it to stop");
+      said = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
   return fd;
 }
 
 }  // namespace
 
+GigePortLock::GigePortLock(double timeout_s) : fd_(lock_gige_port(timeout_s)) {}
+
+GigePortLock::~GigePortLock() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+int GigePortLock::release() {
+  const int fd = fd_;
+  fd_ = -1;
+  return fd;
+}
+
 void GigeCamera::start() {
   std::lock_guard lock(mutex_);
   if (impl_->gv) return;
-  const int lock_fd = lock_gige_port();
+  const int lock_fd = GigePortLock().release();
   struct Unlock {
     int fd;
     ~Unlock() {

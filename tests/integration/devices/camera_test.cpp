@@ -256,6 +256,7 @@ class AravisFakeProgram : public ::testing::Test {
   void start(const std::vector<std::string>& extra = {}) {
     std::vector<std::string> argv = {"arv-fake-gv-camera-0.8", "-i", "127.0.0.1"};
     argv.insert(argv.end(), extra.begin(), extra.end());
+    port_ = std::make_unique<sim::GigePortLock>();  // no other simulated camera meanwhile
     try {
       fake_ = std::make_unique<test::Process>(argv);
     } catch (const std::exception&) {
@@ -272,6 +273,7 @@ class AravisFakeProgram : public ::testing::Test {
     }
     return nullptr;
   }
+  std::unique_ptr<sim::GigePortLock> port_;  // declared first: released after the program stopped
   std::unique_ptr<test::Process> fake_;
 };
 

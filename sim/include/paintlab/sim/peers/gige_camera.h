@@ -49,6 +49,24 @@ struct GigeCameraOptions {
 };
 
 // Faults, switched on per test.
+// Machine-wide ownership of the GigE Vision control port 127.0.0.1:3956. Two fake cameras
+// would both bind it and answer each other's clients, so every simulated camera (and a test
+// that starts Aravis' own fake program) holds this lock while it serves: a second one waits
+// until the first stops (a lock file under /tmp; also waits while a program that takes no
+// lock holds the port). Throws DeviceError after `timeout_s`.
+class GigePortLock {
+ public:
+  explicit GigePortLock(double timeout_s = 1200.0);
+  ~GigePortLock();
+  GigePortLock(const GigePortLock&) = delete;
+  GigePortLock& operator=(const GigePortLock&) = delete;
+  // Hands the lock to the caller (closing the fd releases it); the object then holds none.
+  int release();
+
+ private:
+  int fd_ = -1;
+};
+
 struct CameraFaults {
   int incomplete_frames = 0;  // the next N frames lose most of their packets
 };
