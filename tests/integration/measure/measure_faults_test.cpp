@@ -1,0 +1,141 @@
+// Device faults during a sweep, injected in the simulated peers while the real drivers
+// (libmodbus, Aravis, the light driver) talk to them: transient faults are retried and the
+// session completes; persistent ones stop the run safely (LED off, journal consistent,
+// the reason names the device) and the session resumes to completion once the fault is
+// gone.
+#include <gtest/gtest.h>
+
+#include "measure_support.h"
+#include "paintlab/acquisition/runner.h"
+#include "paintlab/acquisition/session.h"
+#include "paintlab/core/rig.h"
+#include "paintlab/sim/peers/gige_camera.h"
+#include "paintlab/sim/peers/sim_light.h"
+#include "paintlab/sim/peers/sim_rig.h"
+#include "paintlab/sim/peers/turntable_server.h"
+#include "rig_devices.h"
+#include "sim_rigs.h"
+#include "test_util.h"
+
+using namespace paintlab;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kPositions = 4;
+
+class MeasureFaults : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    test::write_text(dir_ / "rig.toml", test::small_sim_rig(kPositions, 15.0, 3));
+    rig_ = RigConfig::load(dir_ / "rig.toml");
+    devices_ = app::open_rig_devices(rig_);
+    ASSERT_TRUE(devices_.sim);
+    camera_ = app::prepare_camera(*devices_.camera, rig_);
+  }
+
+  acq::SessionDir create_session(const std::string& name) {
+    acq::SessionManifest m;
+    m.sample = "fault-test";
+    m.rig_name = rig_.name;
+    m.rig_file = rig_.file.string();
+    m.angles_deg = rig_.plan.angles_deg();
+    m.exposures_s = rig_.plan.exposures_s;
+    m.settle_s = rig_.plan.settle_s;
+    return acq::SessionDir::create(dir_ / name, std::move(m));
+  }
+
+  acq::RunSummary run(const acq::SessionDir& session, int max_retries = 3) {
+    acq::RunnerOptions o;
+    o.max_retries = max_retries;
+    o.retry_backoff_s = 0.01;
+    app::MergeState merge(acq::HdrCalibration{}, dev::bit_depth(camera_.format));
+    acq::Runner runner(session, {*devices_.turntable, *devices_.light, *devices_.camera, *devices_.clock},
+                       merge.function(), o);
+    std::atomic<bool> stop{false};
+    return runner.run(stop);
+  }
+
+  int journal_lines(const acq::SessionDir& s) { return static_cast<int>(s.journal().read().size()); }
+
+  test::TempDir dir_;
+  RigConfig rig_;
+  app::RigDevices devices_;
+  app::CameraPreparation camera_;
+};
+
+}  // namespace
+
+TEST_F(MeasureFaults, ModbusTimeoutsAndDroppedConnectionsAreRetried) {
+  acq::SessionDir s = create_session("timeouts");
+  sim::ModbusFaults f;
+  f.timeouts = 2;
+  f.drops = 1;
+  devices_.sim->turntable()->set_faults(f);
+  acq::RunSummary r = run(s);
+  EXPECT_TRUE(r.complete) << r.stop_reason;
+  // The driver retried (reconnecting after the drop); every injected fault was hit.
+  EXPECT_EQ(devices_.sim->turntable()->faulted_requests(), 3);
+  EXPECT_EQ(journal_lines(s), kPositions);
+  EXPECT_FALSE(devices_.sim->light()->emitting());
+}
+
+TEST_F(MeasureFaults, IncompleteFramesAreCapturedAgain) {
+  acq::SessionDir s = create_session("frames");
+  const std::uint64_t before = devices_.sim->camera()->frames_filled();
+  devices_.sim->camera()->set_faults(sim::CameraFaults{2});
+  acq::RunSummary r = run(s);
+  EXPECT_TRUE(r.complete) << r.stop_reason;
+  // Two frames were broken and captured again: two more frames than the plan needs.
+  EXPECT_GE(devices_.sim->camera()->frames_filled() - before,
+            static_cast<std::uint64_t>(r.frames) + 2);
+  EXPECT_EQ(journal_lines(s), kPositions);
+  // The merged images hold no trace of the broken frames: every one is journaled intact.
+  EXPECT_TRUE(s.inspect().problems.empty());
+}
+
+TEST_F(MeasureFaults, PersistentModbusExceptionStopsSafelyAndTheSessionResumes) {
+  acq::SessionDir s = create_session("exception");
+  sim::ModbusFaults f;
+  f.exception_code = 4;  // server device failure
+  f.exceptions = 1000;
+  devices_.sim->turntable()->set_faults(f);
+  acq::RunSummary r = run(s, 2);
+  EXPECT_FALSE(r.complete);
+  EXPECT_TRUE(r.device_fault);
+  EXPECT_NE(r.stop_reason.find("turntable"), std::string::npos) << r.stop_reason;
+  EXPECT_NE(r.stop_reason.find("exception"), std::string::npos) << r.stop_reason;
+  EXPECT_FALSE(devices_.sim->light()->emitting()) << "the LED must be off after a fault";
+  acq::SessionState st = s.inspect();
+  EXPECT_TRUE(st.problems.empty());
+  EXPECT_EQ(static_cast<int>(st.todo.size()) + st.finished_count(), kPositions);
+
+  devices_.sim->turntable()->set_faults(sim::ModbusFaults{});
+  acq::SessionDir again = acq::SessionDir::open(dir_ / "exception");
+  acq::RunSummary r2 = run(again);
+  EXPECT_TRUE(r2.complete) << r2.stop_reason;
+  EXPECT_EQ(journal_lines(again), kPositions);
+}
+
+TEST_F(MeasureFaults, ControllerAlarmStopsTheRunNamingTheAlarm) {
+  acq::SessionDir s = create_session("alarm");
+  sim::ModbusFaults f;
+  f.alarm_code = 0x30;
+  devices_.sim->turntable()->set_faults(f);
+  acq::RunSummary r = run(s, 1);
+  EXPECT_FALSE(r.complete);
+  EXPECT_TRUE(r.device_fault);
+  EXPECT_NE(r.stop_reason.find("alarm"), std::string::npos) << r.stop_reason;
+  EXPECT_EQ(journal_lines(s), 0);
+  EXPECT_FALSE(devices_.sim->light()->emitting());
+}
+
+TEST_F(MeasureFaults, StuckLedIsDetectedAndNothingIsJournaled) {
+  acq::SessionDir s = create_session("stuck");
+  devices_.sim->light()->set_stuck(true);  // off, and stays off whatever is commanded
+  acq::RunSummary r = run(s, 1);
+  EXPECT_FALSE(r.complete);
+  EXPECT_TRUE(r.device_fault);
+  EXPECT_NE(r.stop_reason.find("LED"), std::string::npos) << r.stop_reason;
+  EXPECT_EQ(journal_lines(s), 0) << "a position measured without light must not be journaled";
+}
