@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <random>
 
@@ -386,6 +387,50 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
   ASSERT_TRUE(e.paint->fit_quality);
   EXPECT_EQ(e.paint->fit_quality->log_rms, e.fits[0]["residual"]["log_rms"].get<double>());
   EXPECT_EQ(fs::file_size(*r.merl), brdf::kMerlFileBytes);
+
+  // The MERL file read as the public reference reader does (BRDFRead.cpp): int32 dims
+  // 90 x 90 x 180, then all R, all G, all B doubles times 1/1500, 1.15/1500, 1.66/1500,
+  // flat index phi_d + 180 (theta_d + 90 theta_h). Every measured bin holds the binned
+  // value, and the binned values are the paint's BRDF at the bins' mean coordinates.
+  {
+    const std::string bytes = read_file(*r.merl);
+    std::int32_t dims[3];
+    std::memcpy(dims, bytes.data(), sizeof dims);
+    EXPECT_EQ(dims[0], 90);
+    EXPECT_EQ(dims[1], 90);
+    EXPECT_EQ(dims[2], 180);
+    const std::size_t n = 90 * 90 * 180;
+    const double scale[3] = {1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0};
+    auto stored = [&](int c, std::size_t i) {
+      double v;
+      std::memcpy(&v, bytes.data() + sizeof dims + (c * n + i) * sizeof(double), sizeof v);
+      return v * scale[c];
+    };
+    const fit::BinnedTable binned = app::bin_session(acq::SessionDir::open(session), sim->calibration_dir(), 2);
+    const brdf::PaintSpec spec = silver();
+    const auto& ct = std::get<brdf::CookTorranceParams>(spec.params);
+    const brdf::CookTorrance truth(ct.kd, ct.lobes);
+    std::size_t measured = 0, equal = 0;
+    std::vector<double> ratio;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (binned.table.state(i) != brdf::BinState::Measured) continue;
+      ++measured;
+      const brdf::Rgb v = binned.table.value(i);
+      bool same = true;
+      for (int c = 0; c < 3; ++c) same = same && std::abs(stored(c, i) - v[c]) <= 1e-12 * std::abs(v[c]);
+      equal += same;
+      const Eigen::Vector3d hd = binned.table.mean_coords(i);
+      if (hd.x() > 0.15)  // off the clear coat's 1-deg mirror peak (1 % noise per sample)
+        ratio.push_back(v.mean() / truth.eval_half_diff(hd.x(), hd.y(), hd.z()).mean());
+    }
+    EXPECT_GT(measured, 1000u);
+    EXPECT_EQ(equal, measured);
+    ASSERT_GT(ratio.size(), 200u);
+    std::nth_element(ratio.begin(), ratio.begin() + ratio.size() / 2, ratio.end());
+    std::printf("MERL export: %zu measured bins, median measured/truth %.4f over %zu bins\n", measured,
+                ratio[ratio.size() / 2], ratio.size());
+    EXPECT_NEAR(ratio[ratio.size() / 2], 1.0, 0.01);  // measured 1.0003
+  }
 
   // The same fit from memory with the session's provenance and another name.
   const acq::SessionDir sd = acq::SessionDir::open(session);
