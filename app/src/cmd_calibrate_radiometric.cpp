@@ -151,6 +151,10 @@ void run_dark(const DarkArgs& a, const StepRun& run) {
 
 // --- response --------------------------------------------------------------------------
 
+// With --capture: the exposure at which the brightest pixels of the white reference reach
+// this share of the range anchors the bracket.
+constexpr double kResponseTopFill = 0.7;
+
 struct ResponseArgs : Common {
   std::string method = "robertson";
   std::string dark;
@@ -193,8 +197,24 @@ void run_response(const ResponseArgs& a, const StepRun& run) {
       value_or_throw(s.devices->turntable->wait_settled(120.0));
       if (rig.plan.settle_s > 0) s.devices->clock->sleep_s(rig.plan.settle_s);
     }
-    const auto& t = rig.plan.exposures_s;
-    stack = capture_stack(*s.devices, rig.plan.gain_db, calibration_bracket(t.front(), t.back(), a.count), 1, true,
+    // The bracket follows the scene, not the measuring plan: from where the brightest pixels
+    // sit at ~2 % of the range (data for the toe) to where most of the lit side saturates
+    // (data up to the shoulder), 256x in all.
+    value_or_throw(s.devices->light->on());
+    const double black = dark ? dark->mean_bias_dn : a.black;
+    const double t_top = find_exposure(*s.devices, rig.plan.gain_db, black, kResponseTopFill, 0.999,
+                                       rig.plan.exposures_s.back());
+    const dev::ExposureRange range = value_or_throw(s.devices->camera->exposure_range());
+    const double t_min = std::max(range.min_s, t_top / 32.0), t_max = std::min(range.max_s, t_top * 8.0);
+    if (!(t_max > 4.0 * t_min))
+      throw CalibrationError(fmt::format(
+          "calibrate response: the camera's exposure range ({:.3g}..{:.3g} s) leaves no bracket around {:.3g} s, "
+          "where the brightest pixels of the white reference reach {:.0f} % of the range",
+          range.min_s, range.max_s, t_top, 100.0 * kResponseTopFill));
+    say(fmt::format("response: white reference at {:.3g} ms (brightest pixels at {:.0f} % of the range); bracket "
+                    "{:.3g}..{:.3g} ms, {} exposures",
+                    1e3 * t_top, 100.0 * kResponseTopFill, 1e3 * t_min, 1e3 * t_max, a.count));
+    stack = capture_stack(*s.devices, rig.plan.gain_db, calibration_bracket(t_min, t_max, a.count), 1, true,
                           run.capture_dir());
   } else {
     stack = run.files(a);

@@ -2,16 +2,20 @@
 // (channels and weights: docs/radiometry.md).
 //   paintlab hdr merge --images FILES... (--exposures LIST | --exposure-file F)
 //                      [--response response.json] [--dark dark.json] [--flat flat.json] --out FILE.exr
+//   paintlab hdr merge --images ... --rig R --out FILE.exr   (the rig's response/dark/flat that exist)
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <chrono>
 #include <memory>
 
 #include "cli.h"
 #include "paintlab/acquisition/hdr_merge.h"
+#include "paintlab/calibration/record.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/core/rig.h"
 #include "radiometry_support.h"
 
 namespace fs = std::filesystem;
@@ -22,7 +26,7 @@ void register_hdr_commands(CLI::App& app) {
   CLI::App* group = subcommand_group(app, "hdr", "High dynamic range images from exposure stacks");
   struct Args {
     StackInput input;
-    std::string response, dark, flat, out, weighting;
+    std::string rig, response, dark, flat, out, weighting;
     double saturation = -1.0, floor = -1.0, black = -1.0, read_noise = -1.0, gain = -1.0;
     bool half = false;
   };
@@ -30,7 +34,8 @@ void register_hdr_commands(CLI::App& app) {
   CLI::App* cmd = group->add_subcommand(
       "merge", "Merge an exposure stack into linear radiance (EXR: Y or R,G,B, var.*, valid)");
   add_stack_options(cmd, &a->input);
-  cmd->add_option("--response", a->response, "response.json (default: a linear camera)");
+  cmd->add_option("--rig", a->rig, "rig.toml: its calibration folder's response.json, dark.json, flat.json (those that exist)");
+  cmd->add_option("--response", a->response, "response.json (default: the rig's, else a linear camera)");
   cmd->add_option("--dark", a->dark, "dark.json: per-pixel dark level and hot pixels");
   cmd->add_option("--flat", a->flat, "flat.json: divide by the flat field");
   cmd->add_option("--out", a->out, "output EXR")->required();
@@ -54,9 +59,23 @@ void register_hdr_commands(CLI::App& app) {
     if (a->read_noise >= 0.0) opt.noise = {a->read_noise, a->gain, "command line"};
     opt.check();
     acq::HdrCalibration cal;
-    if (!a->response.empty()) cal.response = calib::ResponseCurve::load(a->response);
-    if (!a->dark.empty()) cal.dark = calib::DarkFrame::load(a->dark);
-    if (!a->flat.empty()) cal.flat = calib::FlatField::load(a->flat);
+    // The rig's calibration files, each replaced by the one given explicitly.
+    std::string response = a->response, dark = a->dark, flat = a->flat;
+    if (!a->rig.empty()) {
+      const RigConfig rig = RigConfig::load(a->rig);
+      const auto rig_file = [&](std::string* file, const char* name) {
+        if (file->empty() && fs::exists(rig.calibration_dir / name)) *file = (rig.calibration_dir / name).string();
+      };
+      rig_file(&response, calib::kResponseFile);
+      rig_file(&dark, calib::kDarkFile);
+      rig_file(&flat, calib::kFlatFile);
+      if (response.empty() && dark.empty() && flat.empty())
+        spdlog::warn("{} has no response.json, dark.json or flat.json: merging as a linear camera",
+                     rig.calibration_dir.string());
+    }
+    if (!response.empty()) cal.response = calib::ResponseCurve::load(response);
+    if (!dark.empty()) cal.dark = calib::DarkFrame::load(dark);
+    if (!flat.empty()) cal.flat = calib::FlatField::load(flat);
     const calib::ExposureStack stack = load_stack_input(a->input);
     const auto frames = stack.frames();
     const auto& first = stack.images.front();
@@ -64,9 +83,9 @@ void register_hdr_commands(CLI::App& app) {
     acq::HdrMerger merger(cal, opt, first.width(), first.height(), first.channels(), stack.bit_depth);
     acq::HdrResult r = merger.merge(frames);
     const double merge_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!a->response.empty()) r.image.attributes["paintlab.response_sha256"] = sha256_file(a->response);
-    if (!a->dark.empty()) r.image.attributes["paintlab.dark_sha256"] = sha256_file(a->dark);
-    if (!a->flat.empty()) r.image.attributes["paintlab.flat_sha256"] = sha256_file(a->flat);
+    if (!response.empty()) r.image.attributes["paintlab.response_sha256"] = sha256_file(response);
+    if (!dark.empty()) r.image.attributes["paintlab.dark_sha256"] = sha256_file(dark);
+    if (!flat.empty()) r.image.attributes["paintlab.flat_sha256"] = sha256_file(flat);
     if (out.has_parent_path()) fs::create_directories(out.parent_path());
     write_exr(out, r.image, a->half);
     const auto& s = r.stats;

@@ -1,0 +1,94 @@
+// Real data: Debevec and Malik's Memorial Church stack (../shared/data/debevec-memorial).
+// Recover the response, merge, and compare with their own radiance map memorial.hdr in
+// natural-log radiance after one scale per channel, over pixels that are not registration
+// border (pure blue) in any photo. OpenCV 4.6's Calibrate/Merge Robertson and Debevec are
+// run on the same data and compared the same way, in the same run. Labelled `slow` (OpenCV's
+// CalibrateRobertson alone takes ~9 s); memorial_test.cpp checks ours against the issue's
+// OpenCV figures in every build.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/photo.hpp>
+
+#include "memorial_data.h"
+#include "paintlab/acquisition/hdr_merge.h"
+#include "paintlab/calibration/exposure_stack.h"
+#include "paintlab/calibration/response.h"
+#include "test_util.h"
+
+using namespace paintlab;
+namespace fs = std::filesystem;
+using namespace paintlab::memorial_test;
+
+TEST(MemorialOpenCv, BeatsOpenCvInTheSameRunAgainstDebevecsRadianceMap) {
+  Memorial m;
+  if (!load(&m)) GTEST_SKIP() << "debevec-memorial data not found under " << test::shared_data_dir();
+  ASSERT_EQ(m.files.size(), 16u);
+  EXPECT_DOUBLE_EQ(m.exposures_s.front(), 32.0);
+  EXPECT_DOUBLE_EQ(m.exposures_s.back(), 1.0 / 1024);
+  const auto frames = m.stack.frames();
+
+  // Ours: Robertson's method over all pixels (borders declared as no-data), merged with the
+  // default weighting (inverse variance from the response's residual spread).
+  calib::ResponseOptions opt;
+  opt.no_data = {0, 0, 255};
+  auto t0 = std::chrono::steady_clock::now();
+  acq::HdrCalibration cal;
+  cal.response = calib::recover_response(frames, 8, opt);
+  const double t_response = seconds_since(t0);
+  t0 = std::chrono::steady_clock::now();
+  const acq::HdrResult ours = acq::merge_hdr(frames, 8, cal);
+  const double t_merge = seconds_since(t0);
+  EXPECT_EQ(ours.stats.weighting, "inverse-variance");
+  const ImageF* planes[3] = {&ours.image.plane("R"), &ours.image.plane("G"), &ours.image.plane("B")};
+  long compared = 0;
+  const double ours_rms = log_rms(m, [&](std::size_t p, int c) { return planes[c]->data()[p]; }, &compared);
+
+  // Ours with Debevec's method (log domain, hat weights), same merge.
+  calib::ResponseOptions dopt = opt;
+  dopt.method = calib::ResponseMethod::Debevec;
+  acq::HdrCalibration dcal;
+  dcal.response = calib::recover_response(frames, 8, dopt);
+  const acq::HdrResult ours_d = acq::merge_hdr(frames, 8, dcal);
+  const ImageF* dplanes[3] = {&ours_d.image.plane("R"), &ours_d.image.plane("G"), &ours_d.image.plane("B")};
+  const double ours_d_rms = log_rms(m, [&](std::size_t p, int c) { return dplanes[c]->data()[p]; });
+
+  // OpenCV 4.6 with its defaults on the 8-bit photos as read by OpenCV (BGR; channels are
+  // independent), compared the same way.
+  std::vector<cv::Mat> images;
+  std::vector<float> times;
+  for (std::size_t j = 0; j < m.files.size(); ++j) {
+    images.push_back(cv::imread(m.files[j].string()));
+    times.push_back(static_cast<float>(m.exposures_s[j]));
+  }
+  cv::Mat resp_r, hdr_r, resp_d, hdr_d;
+  t0 = std::chrono::steady_clock::now();
+  cv::createCalibrateRobertson()->process(images, resp_r, times);
+  cv::createMergeRobertson()->process(images, hdr_r, times, resp_r);
+  const double t_cv_r = seconds_since(t0);
+  t0 = std::chrono::steady_clock::now();
+  cv::createCalibrateDebevec()->process(images, resp_d, times);
+  cv::createMergeDebevec()->process(images, hdr_d, times, resp_d);
+  const double t_cv_d = seconds_since(t0);
+  const double cv_r = log_rms(m, [&](std::size_t p, int c) { return hdr_r.ptr<cv::Vec3f>()[p][2 - c]; });
+  const double cv_d = log_rms(m, [&](std::size_t p, int c) { return hdr_d.ptr<cv::Vec3f>()[p][2 - c]; });
+
+  std::printf("Memorial Church vs memorial.hdr, RMS of ln ratio over %ld non-border values:\n", compared);
+  std::printf("  ours (Robertson response, inverse-variance merge)   %.4f  (response %.2f s, merge %.3f s)\n",
+              ours_rms, t_response, t_merge);
+  std::printf("  ours (Debevec response, inverse-variance merge)     %.4f\n", ours_d_rms);
+  std::printf("  OpenCV CalibrateRobertson + MergeRobertson          %.4f  (%.2f s)\n", cv_r, t_cv_r);
+  std::printf("  OpenCV CalibrateDebevec + MergeDebevec              %.4f  (%.2f s)\n", cv_d, t_cv_d);
+  std::printf("  response: linearity error %.4f, valid pixels %lld of %lld\n",
+              cal.response->report.linearity_error_rel, ours.stats.valid, ours.stats.pixels);
+  // The figures measured by the issue with OpenCV 4.6: 0.093 and 0.320.
+  EXPECT_NEAR(cv_r, 0.093, 0.01);
+  EXPECT_NEAR(cv_d, 0.320, 0.02);
+  EXPECT_LT(ours_rms, cv_r);
+  EXPECT_LT(ours_rms, cv_d);
+  EXPECT_LT(ours_d_rms, cv_d);
+  EXPECT_EQ(ours.stats.valid, ours.stats.pixels);
+}
