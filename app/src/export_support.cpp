@@ -147,7 +147,11 @@ void export_paint_files(const ExportRequest& r, ExportResult& result) {
     if (kind == "merl" && fs::exists(path)) {
       merl_table = brdf::read_merl(path);
     } else if (kind == "session" && is_session_dir(path)) {
-      merl_table = bin_session(acq::SessionDir::open(path), r.calib_dir, r.threads).table;
+      // Binned as the fit's table was: its estimator when the fit names one.
+      fit::BinEstimator estimator = fit::BinningOptions{}.estimator;
+      if (fit_input->contains("estimator") && (*fit_input)["estimator"].is_string())
+        estimator = fit::bin_estimator_from_string((*fit_input)["estimator"].get<std::string>(), "fit.json input.estimator");
+      merl_table = bin_session(acq::SessionDir::open(path), r.calib_dir, r.threads, estimator).table;
       result.bin_s = seconds_since(t0);
     } else {
       throw UsageError(
@@ -291,13 +295,32 @@ calib::RigCalibration session_calibration(const acq::SessionDir& session, const 
   return cal;
 }
 
-fit::BinnedTable bin_session(const acq::SessionDir& session, const std::optional<fs::path>& calib_dir, int threads) {
+namespace {
+void require_complete_session(const acq::SessionDir& session) {
+  const acq::SessionState state = session.inspect();
+  if (state.todo.empty()) return;
+  std::string which;
+  for (std::size_t k = 0; k < state.todo.size() && k < 8; ++k) which += fmt::format("{}{}", k ? ", " : "", state.todo[k]);
+  if (state.todo.size() > 8) which += ", ...";
+  std::string why;
+  for (const std::string& p : state.problems) why += "; " + p;
+  throw DataError(fmt::format("{}: {} of {} light positions are missing (index {}){}; finish the session with "
+                              "`paintlab measure --resume {}`",
+                              session.dir().string(), state.todo.size(), session.position_count(), which, why,
+                              session.dir().string()));
+}
+}  // namespace
+
+fit::BinnedTable bin_session(const acq::SessionDir& session, const std::optional<fs::path>& calib_dir, int threads,
+                             fit::BinEstimator estimator) {
+  require_complete_session(session);
   const auto frames = session_frames(session);
   const calib::RigCalibration cal = session_calibration(session, calib_dir);
   fit::ExtractionOptions eo;
   eo.threads = threads;
   fit::BinningOptions bo;
   bo.threads = threads;
+  bo.estimator = estimator;
   spdlog::info("binning {} HDR images of {}", frames.size(), session.dir().string());
   fit::ExtractionStats stats;
   fit::BinnedTable t = fit::bin_frames(frames, cal, eo, bo, &stats);

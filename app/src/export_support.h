@@ -16,6 +16,7 @@
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/axf_file.h"
+#include "paintlab/fitting/binning.h"
 #include "paintlab/fitting/extraction.h"
 #include "paintlab/fitting/paint_library.h"
 #include "paintlab/fitting/preview.h"
@@ -106,10 +107,12 @@ std::vector<fit::HdrFrame> session_frames(const acq::SessionDir& session);
 calib::RigCalibration session_calibration(const acq::SessionDir& session,
                                           const std::optional<std::filesystem::path>& calib_dir);
 
-// The measured table of a session: every finished HDR image extracted with the session's
-// calibration and binned (default extraction and binning options, `threads` workers).
+// The measured table of a session: every HDR image extracted with the session's
+// calibration and binned (default extraction options, `threads` workers). DataError when
+// the session is not complete (positions missing or failing their checksum), naming them
+// and `paintlab measure --resume`.
 fit::BinnedTable bin_session(const acq::SessionDir& session, const std::optional<std::filesystem::path>& calib_dir,
-                             int threads);
+                             int threads, fit::BinEstimator estimator = fit::BinningOptions{}.estimator);
 
 // Provenance of a paint measured in `session`: sample, measurement date, rig, calibration
 // checksums (as recorded by the session), session checksum (SHA-256 of session.json's bytes

@@ -442,6 +442,27 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
   EXPECT_THROW(app::export_axf({}, {}, tmp / "none.axf.h5"), UsageError);
   EXPECT_FALSE(fs::exists(tmp / "none.axf.h5"));
 
+  // A session with a position still to measure is refused before anything is binned.
+  fs::create_directories(tmp / "partial");
+  for (const char* f : {"session.json", "journal.jsonl"}) fs::copy_file(session / f, tmp / "partial" / f);
+  fs::copy(session / "hdr", tmp / "partial/hdr", fs::copy_options::recursive);
+  Json manifest = read_json_file(tmp / "partial/session.json");
+  manifest["plan"]["angles_deg"].push_back(170.0);
+  write_json_file(tmp / "partial/session.json", manifest);
+  app::ExportRequest partial = r;
+  partial.inputs = {tmp / "partial"};
+  partial.axf = tmp / "partial.axf.h5";
+  partial.merl.reset();
+  partial.fit_out.reset();
+  try {
+    app::export_paint(partial);
+    ADD_FAILURE() << "an incomplete session was exported";
+  } catch (const DataError& err) {
+    EXPECT_THAT(err.what(), HasSubstr("1 of 6 light positions are missing (index 5)"));
+    EXPECT_THAT(err.what(), HasSubstr("paintlab measure --resume"));
+  }
+  EXPECT_FALSE(fs::exists(tmp / "partial.axf.h5"));
+
   // Paint files: --model / --lobes belong to a session.
   app::ExportRequest bad;
   bad.inputs = {*r.axf};
