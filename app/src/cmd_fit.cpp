@@ -1,19 +1,149 @@
 // paintlab fit INPUT --model cook-torrance|axf-carpaint [--lobes N] --out fit.json
-// INPUT: a MERL .binary table (public measured tables, or one `paintlab bin` wrote).
+//   INPUT: a session folder (its HDR images are extracted and binned with the rig's
+//   calibration first) or a MERL .binary table (public measured tables, or one `paintlab
+//   bin` wrote).
+// paintlab bin SESSION --out table.merl [--coverage coverage.exr] [--fill]
+//   extracts and bins a session alone: the measured table (holes written as -1, as MERL
+//   readers expect) and the coverage map.
+#include <algorithm>
 #include <filesystem>
 #include <fmt/format.h>
+#include <optional>
 
 #include "cli.h"
+#include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/merl.h"
+#include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/hash.h"
 #include "paintlab/core/json.h"
 #include "paintlab/core/log.h"
+#include "paintlab/core/rig.h"
 #include "paintlab/fitting/coverage.h"
+#include "paintlab/fitting/extraction.h"
+#include "paintlab/fitting/hole_fill.h"
 #include "paintlab/fitting/pipeline.h"
 
 namespace paintlab::app {
 
 namespace {
+
+namespace fs = std::filesystem;
+
+// Extraction and binning options shared by `fit` (session input) and `bin`.
+struct ExtractArgs {
+  std::string calib;  // calibration folder; default: the one of the session's rig file
+  double margin_px = 3.0;
+  std::string variance = "hdr";
+  std::string estimator = "mean";
+  int threads = 0;
+};
+
+void add_extract_options(CLI::App* sub, ExtractArgs& a) {
+  sub->add_option("--calib", a.calib,
+                  "Calibration folder (default: the calibration folder of the rig file the session names)");
+  sub->add_option("--margin-px", a.margin_px, "Sphere pixels used: at least this far inside the silhouette")
+      ->capture_default_str();
+  sub->add_option("--variance", a.variance,
+                  "Sample variance: hdr (the HDR merge's var.* channels) or local (second differences with the "
+                  "neighbouring pixels: pixel noise and flake sparkle)")
+      ->capture_default_str();
+  sub->add_option("--estimator", a.estimator, "Per-bin estimator: mean or median-of-means")->capture_default_str();
+}
+
+fit::VarianceModel variance_model_from(const std::string& s) {
+  if (s == "hdr") return fit::VarianceModel::Hdr;
+  if (s == "local") return fit::VarianceModel::Local;
+  throw UsageError(fmt::format("--variance: unknown variance model '{}' (expected hdr or local)", s));
+}
+
+// An opened session, complete: every planned position finished with a valid file.
+acq::SessionDir open_complete_session(const fs::path& dir) {
+  acq::SessionDir session = acq::SessionDir::open(dir);
+  const acq::SessionState state = session.inspect();
+  if (!state.todo.empty()) {
+    std::string which;
+    for (std::size_t k = 0; k < state.todo.size() && k < 8; ++k)
+      which += fmt::format("{}{}", k ? ", " : "", state.todo[k]);
+    if (state.todo.size() > 8) which += ", ...";
+    std::string why;
+    for (const std::string& p : state.problems) why += "; " + p;
+    throw DataError(fmt::format("{}: {} of {} light positions are missing (index {}){}; finish the session with "
+                                "`paintlab measure --resume {}`",
+                                dir.string(), state.todo.size(), session.position_count(), which, why, dir.string()));
+  }
+  return session;
+}
+
+std::vector<fit::HdrFrame> frames_of(const acq::SessionDir& session) {
+  std::vector<fit::HdrFrame> frames;
+  for (const acq::JournalEntry& e : session.finished_entries()) frames.push_back({session.dir() / e.file, e.angle_deg});
+  if (frames.empty()) throw DataError(session.dir().string() + ": the session has no measured light position");
+  return frames;
+}
+
+// The calibration: --calib, else the calibration folder of the session's rig file. Warns
+// about every calibration file that changed since the session recorded its checksum.
+calib::RigCalibration calibration_of(const acq::SessionDir& session, const std::string& calib_dir) {
+  fs::path dir;
+  if (!calib_dir.empty()) {
+    dir = calib_dir;
+  } else {
+    const std::string& rig_file = session.manifest().rig_file;
+    if (rig_file.empty() || !fs::exists(rig_file))
+      throw IoError(rig_file.empty() ? (session.dir() / "session.json").string() : rig_file,
+                    "the session's rig file cannot be found; give the calibration folder with --calib DIR");
+    dir = RigConfig::load(rig_file).calibration_dir;
+  }
+  if (!fs::is_directory(dir)) throw IoError(dir.string(), "no such calibration folder");
+  const Json& recorded = session.manifest().calibration;
+  for (auto it = recorded.begin(); it != recorded.end(); ++it) {
+    const fs::path p = dir / it.key();
+    if (!it.value().is_string() || !fs::exists(p)) continue;
+    const std::string now = sha256_file(p);
+    if (now != it.value().get<std::string>())
+      spdlog::warn("{}: changed since the session was measured (sha256 {} then, {} now)", p.string(),
+                   it.value().get<std::string>().substr(0, 12), now.substr(0, 12));
+  }
+  return calib::RigCalibration::load(dir);
+}
+
+struct BinnedSession {
+  fit::BinnedTable binned;
+  fit::ExtractionStats stats;
+  Json input;  // fit.json "input"
+};
+
+BinnedSession bin_session(const fs::path& dir, const ExtractArgs& a) {
+  fit::ExtractionOptions eo;
+  eo.margin_px = a.margin_px;
+  eo.variance = variance_model_from(a.variance);
+  eo.threads = a.threads;
+  eo.check();
+  fit::BinningOptions bo;
+  bo.estimator = fit::bin_estimator_from_string(a.estimator, "--estimator");
+  bo.threads = a.threads;
+  bo.check();
+  const acq::SessionDir session = open_complete_session(dir);
+  const std::vector<fit::HdrFrame> frames = frames_of(session);
+  const calib::RigCalibration cal = calibration_of(session, a.calib);
+  spdlog::info("extracting and binning {} HDR images of {}", frames.size(), dir.string());
+  BinnedSession out;
+  out.binned = fit::bin_frames(frames, cal, eo, bo, &out.stats);
+  out.input = {{"kind", "session"},
+               {"path", fs::absolute(dir).lexically_normal().string()},
+               {"sample", session.manifest().sample},
+               {"positions", frames.size()},
+               {"extraction", out.stats.to_json()},
+               {"variance", fit::to_string(eo.variance)},
+               {"estimator", fit::to_string(bo.estimator)}};
+  return out;
+}
+
+std::string stats_line(const fit::ExtractionStats& s, const fit::BinnedTable& t) {
+  return fmt::format("{} images: {} samples ({} invalid, {} grazing pixels skipped) in {} measured bins", s.images,
+                     s.samples, s.invalid, s.grazing, t.table.count_in_state(brdf::BinState::Measured));
+}
 
 struct FitArgs {
   std::string input;
@@ -22,40 +152,89 @@ struct FitArgs {
   std::string out;
   std::string name;
   std::uint64_t seed = 1;
-  int threads = 0;
   int max_iterations = 100;
+  std::uint32_t min_samples = 1;
+  ExtractArgs extract;
 };
 
 int run_fit(const FitArgs& a) {
-  namespace fs = std::filesystem;
   fit::FitRequest req;
   req.model = fit::fit_model_from_string(a.model, "--model");
   req.cook_torrance.lobes = a.lobes;
   req.cook_torrance.seed = a.seed;
-  req.cook_torrance.threads = a.threads;
+  req.cook_torrance.threads = a.extract.threads;
   req.cook_torrance.max_iterations = a.max_iterations;
+  req.cook_torrance.data.min_samples = a.min_samples;
   req.cook_torrance.check();
   req.axf_carpaint.lobes = a.lobes;
   req.axf_carpaint.seed = a.seed;
-  req.axf_carpaint.threads = a.threads;
+  req.axf_carpaint.threads = a.extract.threads;
   req.axf_carpaint.max_iterations = a.max_iterations;
+  req.axf_carpaint.data.min_samples = a.min_samples;
   req.axf_carpaint.check();
   const fs::path input(a.input);
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
-  if (fs::is_directory(input))
-    throw UsageError(fmt::format("{}: a folder; paintlab fit reads a MERL .binary table", a.input));
-  req.name = a.name.empty() ? fit::paint_name_from(input.stem().string()) : a.name;
-  spdlog::info("reading {}", a.input);
-  const brdf::MerlTable table = brdf::read_merl(input);
-  const Json in = {{"kind", "merl"}, {"path", fs::absolute(input).string()}};
-  spdlog::info("fitting {} ({} measured bins)", fit::to_string(req.model),
-               table.count_in_state(brdf::BinState::Measured));
-  const fit::FitOutcome outcome = fit::fit_table(table, nullptr, req, in);
+  fit::FitOutcome outcome;
+  if (fs::is_directory(input)) {
+    if (!fs::exists(input / "session.json"))
+      throw UsageError(fmt::format("{}: a folder without session.json; paintlab fit reads a session folder or a "
+                                   "MERL .binary table",
+                                   a.input));
+    BinnedSession s = bin_session(input, a.extract);
+    say(stats_line(s.stats, s.binned));
+    req.name = fit::paint_name_from(a.name.empty() ? s.input["sample"].get<std::string>() : a.name);
+    spdlog::info("fitting {}", fit::to_string(req.model));
+    outcome = fit::fit_table(s.binned.table, &s.binned.noise_variance, req, s.input);
+  } else {
+    req.name = fit::paint_name_from(a.name.empty() ? input.stem().string() : a.name);
+    spdlog::info("reading {}", a.input);
+    const brdf::MerlTable table = brdf::read_merl(input);
+    const Json in = {{"kind", "merl"}, {"path", fs::absolute(input).string()}};
+    spdlog::info("fitting {} ({} measured bins)", fit::to_string(req.model),
+                 table.count_in_state(brdf::BinState::Measured));
+    outcome = fit::fit_table(table, nullptr, req, in);
+  }
   write_json_file(a.out, outcome.fit);
   std::string report = outcome.report;
   while (!report.empty() && report.back() == '\n') report.pop_back();
   say(report);
   say(fmt::format("wrote {}", a.out));
+  return kExitOk;
+}
+
+struct BinArgs {
+  std::string session;
+  std::string out;
+  std::string coverage;  // default: beside --out
+  bool fill = false;
+  ExtractArgs extract;
+};
+
+int run_bin(const BinArgs& a) {
+  const fs::path dir(a.session);
+  if (!fs::exists(dir)) throw IoError(a.session, "no such folder");
+  if (!fs::is_directory(dir) || !fs::exists(dir / "session.json"))
+    throw UsageError(fmt::format("{}: not a session folder (no session.json)", a.session));
+  const fs::path out(a.out);
+  fs::path cov(a.coverage);
+  if (cov.empty()) cov = out.parent_path() / (out.stem().string() + ".coverage.exr");
+  BinnedSession s = bin_session(dir, a.extract);
+  say(stats_line(s.stats, s.binned));
+  if (s.binned.table.count_in_state(brdf::BinState::Measured) == 0)
+    throw DataError(fmt::format("{}: no sample landed in the table (every pixel invalid or grazing); nothing written",
+                                a.session));
+  brdf::MerlTable& table = s.binned.table;
+  std::string described = fit::coverage(table).describe();
+  while (!described.empty() && described.back() == '\n') described.pop_back();
+  say(described);
+  if (a.fill) {
+    const fit::HoleFillReport r = fit::fill_holes(table);
+    say(fmt::format("filled {} bins from the phi_d mirror and {} by push-pull ({} below the horizon left empty)",
+                    r.filled_mirror, r.filled_pyramid, r.invalid_empty));
+  }
+  fit::write_coverage_exr(cov, table);
+  brdf::write_merl(out, table);
+  say(fmt::format("wrote {} and {}", out.string(), cov.string()));
   return kExitOk;
 }
 
@@ -65,18 +244,40 @@ void register_fit_commands(CLI::App& app) {
   auto args = std::make_shared<FitArgs>();
   CLI::App* fit = app.add_subcommand(
       "fit",
-      "Fit a paint model to a measured BRDF table and write fit.json (parameters, standard deviations, residuals "
-      "per region, solver summary). Exit 1 when the fit does not converge; nothing is written then.");
-  fit->add_option("INPUT", args->input, "MERL .binary table")->required();
+      "Fit a paint model to a session (its HDR images are extracted and binned with the rig's calibration) or to a "
+      "MERL .binary table, and write fit.json (parameters, standard deviations, residuals per region, solver "
+      "summary). Exit 1 when the fit does not converge, 2 on bad input; nothing is written then.");
+  fit->add_option("INPUT", args->input, "Session folder or MERL .binary table")->required();
   fit->add_option("--model", args->model, "Model to fit: cook-torrance or axf-carpaint")->capture_default_str();
   fit->add_option("--lobes", args->lobes, "Lobes (Cook-Torrance, or the car paint's achromatic lobes), 1..3")->capture_default_str();
   fit->add_option("--out", args->out, "fit.json to write")->required();
-  fit->add_option("--name", args->name, "Paint name in fit.json (default: from the input)");
+  fit->add_option("--name", args->name, "Paint name in fit.json (default: the session's sample, or the file name)");
   fit->add_option("--seed", args->seed, "Seed of the random starts (the fit is deterministic for a seed)")
       ->capture_default_str();
-  fit->add_option("--threads", args->threads, "Worker threads, 0 = all cores")->capture_default_str();
+  fit->add_option("--threads", args->extract.threads, "Worker threads, 0 = all cores")->capture_default_str();
   fit->add_option("--max-iterations", args->max_iterations, "Iterations of the final solve")->capture_default_str();
+  fit->add_option("--min-samples", args->min_samples,
+                  "Pool neighbouring phi_d bins into fit points of at least this many samples (sessions with flake "
+                  "sparkle: 16 or more)")
+      ->capture_default_str();
+  add_extract_options(fit, args->extract);
   on_run(fit, [args] { return run_fit(*args); });
+
+  auto bargs = std::make_shared<BinArgs>();
+  CLI::App* bin = app.add_subcommand(
+      "bin",
+      "Extract the BRDF samples of a session's HDR images and bin them into a MERL .binary table (empty bins as "
+      "-1) with a coverage map (EXR: count, state, valid, R, G, B per bin). Exit 2 on bad input; nothing is written "
+      "then.");
+  bin->add_option("SESSION", bargs->session, "Session folder")->required();
+  bin->add_option("--out", bargs->out, "MERL .binary table to write")->required();
+  bin->add_option("--coverage", bargs->coverage, "Coverage map to write (default: OUT's name with .coverage.exr)");
+  bin->add_flag("--fill", bargs->fill,
+                "Fill the holes (phi_d mirror, then push-pull) before writing; the file cannot mark filled bins, "
+                "the coverage map's state channel does. Do not fit a filled table.");
+  bin->add_option("--threads", bargs->extract.threads, "Worker threads, 0 = all cores")->capture_default_str();
+  add_extract_options(bin, bargs->extract);
+  on_run(bin, [bargs] { return run_bin(*bargs); });
 }
 
 }  // namespace paintlab::app

@@ -262,6 +262,91 @@ std::vector<GridStart> grid_starts(const FitData& data, const std::vector<const 
   return out;
 }
 
+// Warm starts: the lobes of `warm` kept (m, r as fitted), each combination of the missing
+// lobes' roughnesses from the grid added with r = 0.5, and kd and all ks re-solved by NNLS.
+// Since ks = 0 for the new lobes is feasible, the best of them is never worse than `warm`.
+std::vector<GridStart> warm_starts(const FitData& data, const std::vector<const FitBin*>& bins,
+                                   const brdf::CookTorranceParams& warm, const CtFitOptions& o) {
+  const std::vector<double> grid = roughness_grid(o.m_min);
+  const int G = static_cast<int>(grid.size());
+  const int W = static_cast<int>(warm.lobes.size());
+  const int missing = o.lobes - W;
+  // Columns: 1/pi, the W warm lobes, the G grid lobes.
+  const int cols_total = 1 + W + G;
+  std::array<Eigen::MatrixXd, 3> gram;
+  std::array<Eigen::VectorXd, 3> rhs;
+  for (int c = 0; c < 3; ++c) {
+    gram[c] = Eigen::MatrixXd::Zero(cols_total, cols_total);
+    rhs[c] = Eigen::VectorXd::Zero(cols_total);
+  }
+  Eigen::VectorXd phi(cols_total);
+  for (const FitBin* b : bins) {
+    phi.setZero();
+    phi[0] = kInvPi;
+    for (const FitMember* mb = members_begin(data, *b); mb != members_end(data, *b); ++mb) {
+      for (int l = 0; l < W; ++l) phi[1 + l] += mb->weight * brdf::ct_lobe(warm.lobes[l].m, warm.lobes[l].r, mb->geometry);
+      for (int g = 0; g < G; ++g) phi[1 + W + g] += mb->weight * brdf::ct_lobe(grid[g], 0.5, mb->geometry);
+    }
+    for (int c = 0; c < 3; ++c) {
+      if (b->inv_sigma[c] == 0.0) continue;
+      const double w = b->inv_sigma[c] / b->value[c];
+      gram[c].selfadjointView<Eigen::Lower>().rankUpdate(phi, w * w);
+      rhs[c] += w * w * b->value[c] * phi;
+    }
+  }
+  for (int c = 0; c < 3; ++c) gram[c] = gram[c].selfadjointView<Eigen::Lower>();
+  std::vector<GridStart> out;
+  auto add = [&](const std::vector<int>& pick) {
+    std::vector<int> cols{0};
+    std::vector<std::pair<double, double>> nl;  // (m, r) per lobe
+    for (int l = 0; l < W; ++l) {
+      cols.push_back(1 + l);
+      nl.emplace_back(warm.lobes[l].m, warm.lobes[l].r);
+    }
+    std::string ms;
+    for (int g : pick) {
+      cols.push_back(1 + W + g);
+      nl.emplace_back(grid[g], 0.5);
+      ms += fmt::format("{}{:g}", ms.empty() ? "" : ",", grid[g]);
+    }
+    const int n = static_cast<int>(cols.size());
+    GridStart s;
+    s.params.lobes = o.lobes;
+    double cost = 0;
+    std::array<Eigen::VectorXd, 3> x;
+    for (int c = 0; c < 3; ++c) {
+      Eigen::MatrixXd A(n, n);
+      Eigen::VectorXd bb(n);
+      for (int a = 0; a < n; ++a) {
+        bb[a] = rhs[c][cols[a]];
+        for (int e = 0; e < n; ++e) A(a, e) = gram[c](cols[a], cols[e]);
+      }
+      cost += nnls_small(A, bb, x[c]);
+    }
+    // Lobes broadest first, as the fit keeps them.
+    std::vector<int> order(static_cast<std::size_t>(o.lobes));
+    for (int l = 0; l < o.lobes; ++l) order[l] = l;
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return nl[a].first > nl[b].first; });
+    for (int c = 0; c < 3; ++c) {
+      s.params.lin[c][0] = x[c][0];
+      for (int l = 0; l < o.lobes; ++l) s.params.lin[c][1 + l] = x[c][1 + order[l]];
+    }
+    for (int l = 0; l < o.lobes; ++l) {
+      s.params.nl[2 * l] = std::clamp(nl[order[l]].first, o.m_min, detail::kUnitHi);
+      s.params.nl[2 * l + 1] = std::clamp(nl[order[l]].second, detail::kUnitLo, detail::kUnitHi);
+    }
+    s.cost = cost;
+    s.origin = fmt::format("warm {} lobe{}{}", W, W == 1 ? "" : "s", ms.empty() ? "" : " + m=" + ms);
+    out.push_back(s);
+  };
+  if (missing == 0)
+    add({});
+  else
+    for_each_combination(G, missing, add);
+  std::sort(out.begin(), out.end(), [](const GridStart& a, const GridStart& b) { return a.cost < b.cost; });
+  return out;
+}
+
 // Keeps every channel's model positive where it has data: a small diffuse part.
 void ensure_positive(CtParams& p, const std::vector<const FitBin*>& bins) {
   for (int c = 0; c < 3; ++c) {
@@ -295,6 +380,13 @@ void CtFitOptions::check() const {
   if (!(m_min > 0.0 && m_min < 0.1)) fail("m_min", fmt::format("{}", m_min), "in (0, 0.1)");
   if (threads < 0) fail("threads", std::to_string(threads), ">= 0");
   if (chunk_bins < 1) fail("chunk_bins", std::to_string(chunk_bins), ">= 1");
+  if (warm_start) {
+    if (warm_start->lobes.empty() || static_cast<int>(warm_start->lobes.size()) > lobes)
+      fail("warm_start", fmt::format("a fit of {} lobes", warm_start->lobes.size()), "1..lobes lobes");
+    for (const brdf::CtLobe& l : warm_start->lobes)
+      if (!(l.m > 0.0 && l.m < 1.0 && l.r > 0.0 && l.r < 1.0))
+        fail("warm_start", fmt::format("a lobe with m = {}, r = {}", l.m, l.r), "m and r in (0, 1)");
+  }
   data.check();
 }
 
@@ -380,6 +472,10 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
                 all.size(), elapsed());
   std::vector<GridStart> starts(candidates.begin(),
                                 candidates.begin() + std::min<std::ptrdiff_t>(o.grid_starts, candidates.size()));
+  if (o.warm_start) {
+    const std::vector<GridStart> warm = warm_starts(data, sub, *o.warm_start, o);
+    starts.insert(starts.end(), warm.begin(), warm.begin() + std::min<std::ptrdiff_t>(2, warm.size()));
+  }
   std::mt19937_64 rng(o.seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::uniform_real_distribution<double> uni(0.05, 0.95);

@@ -57,12 +57,25 @@ void expect_recovered(const brdf::CookTorranceParams& truth, const brdf::CookTor
   }
 }
 
+// Unit tests keep the fits small (tens of thousands of bins, fewer starts): the full-table
+// fit is bench/fitting's BM_FitCookTorranceFullTable, the whole-pipeline accuracy is
+// sim_pipeline_itest.cpp.
+CtFitOptions quick_options(int lobes) {
+  CtFitOptions opt;
+  opt.lobes = lobes;
+  opt.grid_starts = 2;
+  opt.random_starts = 1;
+  opt.start_bins = 6000;
+  return opt;
+}
+
 TEST(CookTorranceFit, RecoversThreeLobesFromATabulatedPaintExactly) {
   const brdf::CookTorranceParams truth = silver_params();
-  const brdf::MerlTable table = brdf::tabulate(brdf::CookTorrance(truth.kd, truth.lobes));
+  // One bin in 16 of the table (about 70 000 bins, every theta_h row).
+  const brdf::MerlTable table = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 16);
   const FitData data = prepare_fit_data(table);
   EXPECT_FALSE(data.has_statistics);
-  CtFitOptions opt;
+  CtFitOptions opt = quick_options(3);
   opt.covariance = false;
   const CookTorranceFit fit = fit_cook_torrance(data, opt);
   print_fit("tabulated silver", fit);
@@ -75,11 +88,12 @@ TEST(CookTorranceFit, RecoversThreeLobesFromNoisyBinnedSamples) {
   init_logging(1);
   const brdf::CookTorranceParams truth = silver_params();
   const brdf::CookTorrance paint(truth.kd, truth.lobes);
-  const BinnedTable binned = test_support::binned_sweep(paint, 160, 0.02, test::seed());
+  // A 100-pixel sphere every 2 degrees: about 350 000 samples.
+  const BinnedTable binned = test_support::binned_sweep(paint, 100, 0.02, test::seed(), 2.0);
   const FitData data = prepare_fit_data(binned.table, {}, &binned.noise_variance);
   EXPECT_TRUE(data.has_statistics);
   EXPECT_EQ(data.noise_source, NoiseSource::SampleNoise);
-  const CookTorranceFit fit = fit_cook_torrance(data);
+  const CookTorranceFit fit = fit_cook_torrance(data, quick_options(3));
   print_fit("binned silver, 2 % noise", fit);
   {
     const ResidualReport truth_res = residual_report(data, evaluate_cook_torrance(data, truth));
@@ -105,9 +119,8 @@ TEST(CookTorranceFit, RecoversThreeLobesFromNoisyBinnedSamples) {
 TEST(CookTorranceFit, RecoversTwoLobes) {
   const brdf::CookTorranceParams truth = blue_params();
   const brdf::CookTorrance paint(truth.kd, truth.lobes);
-  const BinnedTable binned = test_support::binned_sweep(paint, 160, 0.02, test::seed());
-  CtFitOptions opt;
-  opt.lobes = 2;
+  const BinnedTable binned = test_support::binned_sweep(paint, 100, 0.02, test::seed(), 2.0);
+  const CtFitOptions opt = quick_options(2);
   const CookTorranceFit fit = fit_cook_torrance(prepare_fit_data(binned.table, {}, &binned.noise_variance), opt);
   print_fit("binned blue, 2 % noise", fit);
   EXPECT_TRUE(fit.summary.converged) << fit.summary.termination;

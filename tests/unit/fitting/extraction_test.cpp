@@ -53,8 +53,14 @@ ZStats zscores(const BinnedTable& t, const brdf::Brdf& truth, std::uint32_t min_
 
 TEST(Extraction, BinnedSimulatedFramesAgreeWithTheTruthWithinTheNoise) {
   const brdf::PaintSpec spec = silver();
+  // A small rig image (320 x 240, the sphere about 100 pixels across) every 3 degrees keeps
+  // the rendering short; the z-scores need many bins, not many samples per bin.
   test_support::SimSessionOptions o;
   o.sparkle = false;
+  o.width_px = 320;
+  o.height_px = 240;
+  o.focal_length_mm = 12.5;
+  o.step_deg = 3.0;
   auto session = test_support::make_sim_session(sim::sim_paint(spec), o);
   const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());
   ExtractionStats stats;
@@ -68,7 +74,7 @@ TEST(Extraction, BinnedSimulatedFramesAgreeWithTheTruthWithinTheNoise) {
   EXPECT_EQ(stats.images, session->frames.size());
   EXPECT_EQ(stats.samples, t.samples_binned);
   EXPECT_EQ(stats.invalid, 0u);
-  EXPECT_GT(stats.samples, 1000000u);
+  EXPECT_GT(stats.samples, 100000u);
   std::printf("%s", coverage(t.table).describe().c_str());
   const auto truth = brdf::make_brdf(spec);
   const ZStats z = zscores(t, *truth, 2);
@@ -80,6 +86,9 @@ TEST(Extraction, BinnedSimulatedFramesAgreeWithTheTruthWithinTheNoise) {
 
 TEST(Extraction, ImagesOfTheWrongSizeOrWithoutRadianceAreRejected) {
   test_support::SimSessionOptions o;
+  o.width_px = 320;
+  o.height_px = 240;
+  o.focal_length_mm = 12.5;
   o.start_deg = o.stop_deg = 90.0;
   auto session = test_support::make_sim_session(sim::sim_paint(silver()), o);
   const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());

@@ -6,12 +6,18 @@
 #include <filesystem>
 #include <random>
 
+#include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/cook_torrance.h"
 #include "paintlab/brdf/merl.h"
 #include "paintlab/brdf/paint.h"
 #include "paintlab/brdf/pearlescent.h"
 #include "paintlab/core/atomic_file.h"
+#include "paintlab/core/hash.h"
+#include "paintlab/core/image_io.h"
 #include "paintlab/core/json.h"
+#include "paintlab/sim/paint.h"
+#include "sim_session.h"
+#include "synthetic.h"
 #include "test_util.h"
 
 namespace paintlab::fit {
@@ -30,9 +36,9 @@ brdf::CookTorranceParams blue() {
 TEST(FitCli, FitsAMerlFileAndWritesFitJson) {
   test::TempDir dir;
   const brdf::CookTorranceParams truth = blue();
-  // A MERL file as public tables come: every bin, measured, no statistics; with 1 %
-  // multiplicative noise.
-  brdf::MerlTable t = brdf::tabulate(brdf::CookTorrance(truth.kd, truth.lobes));
+  // A MERL file as public tables come: measured values, no statistics, with 1 %
+  // multiplicative noise; one bin in 8 (the others missing, -1 in the file) keeps the test fast.
+  brdf::MerlTable t = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 8);
   std::mt19937_64 rng(test::seed());
   std::normal_distribution<double> g(0, 1);
   for (std::size_t b = 0; b < brdf::kMerlBins; ++b)
@@ -100,12 +106,119 @@ TEST(FitCli, AFitThatDoesNotConvergeExitsOneWithoutOutput) {
   p.flake_roughness = 0.18;
   p.film_ior = 2.5;
   p.film_thickness_nm = 160;
-  brdf::write_merl(dir / "pearl.binary", brdf::tabulate(brdf::LayeredPearlescent(p)));
+  brdf::write_merl(dir / "pearl.binary", test_support::tabulate_sparse(brdf::LayeredPearlescent(p), 16));
   const std::string out = (dir / "fit.json").string();
   const auto r = test::run_paintlab("fit " + (dir / "pearl.binary").string() + " --max-iterations 1 --out " + out);
   EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
   EXPECT_THAT(r.err, HasSubstr("did not converge"));
   EXPECT_FALSE(fs::exists(out));
+}
+
+// The frames of a simulated sweep as a session folder `dir` (session.json, journal.jsonl,
+// hdr/pos_XXX.exr), as paintlab measure leaves it; the plan holds `extra_planned` more
+// positions than were measured.
+void write_session(const test_support::SimSession& sim, const fs::path& dir, int extra_planned = 0) {
+  acq::SessionManifest m;
+  m.sample = "Solid Blue #2";
+  m.exposures_s = {0.01};
+  for (const HdrFrame& f : sim.frames) m.angles_deg.push_back(f.angle_deg);
+  for (int k = 0; k < extra_planned; ++k) m.angles_deg.push_back(m.angles_deg.back() + 1.0);
+  const acq::SessionDir session = acq::SessionDir::create(dir, m);
+  for (std::size_t i = 0; i < sim.frames.size(); ++i) {
+    const int index = static_cast<int>(i);
+    fs::copy_file(sim.frames[i].path, session.hdr_path(index));
+    acq::JournalEntry e;
+    e.index = index;
+    e.angle_deg = e.angle_read_deg = sim.frames[i].angle_deg;
+    e.file = acq::SessionDir::hdr_name(index);
+    e.sha256 = sha256_file(session.hdr_path(index));
+    session.journal().append(e);
+  }
+}
+
+test_support::SimSessionOptions small_sweep() {
+  test_support::SimSessionOptions o;
+  o.width_px = 320;
+  o.height_px = 240;
+  o.focal_length_mm = 12.5;
+  o.step_deg = 6.0;
+  o.sparkle = false;
+  return o;
+}
+
+TEST(FitCli, BinsAndFitsASessionFolder) {
+  const brdf::PaintSpec spec = brdf::load_paint_file(test::source_dir() / "paints/solid-blue.toml");
+  const auto sim = test_support::make_sim_session(sim::sim_paint(spec), small_sweep());
+  const fs::path session = sim->dir / "session";
+  write_session(*sim, session);
+  const std::string calib = " --calib " + sim->calibration_dir().string();
+  const fs::path merl = sim->dir / "blue.binary";
+  auto r = test::run_paintlab("bin " + session.string() + calib + " --out " + merl.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr(std::to_string(sim->frames.size()) + " images"));
+  EXPECT_THAT(r.out, HasSubstr("glossy"));
+  ASSERT_TRUE(fs::exists(sim->dir / "blue.coverage.exr"));
+  const ExrImage cov = read_exr(sim->dir / "blue.coverage.exr");
+  EXPECT_NE(cov.find("count"), nullptr);
+  EXPECT_NE(cov.find("state"), nullptr);
+  const brdf::MerlTable table = brdf::read_merl(merl);
+  const std::size_t measured = table.count_in_state(brdf::BinState::Measured);
+  EXPECT_GT(measured, 10000u);
+  EXPECT_LT(measured, brdf::kMerlBins / 2);  // holes stay holes (-1 in the file)
+
+  const fs::path out = sim->dir / "fit.json";
+  r = test::run_paintlab("fit " + session.string() + calib + " --lobes 2 --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("cook-torrance, 2 lobes"));
+  const Json j = read_json_file(out);
+  EXPECT_EQ(j["name"], "solid-blue--2");  // from the session's sample name
+  EXPECT_EQ(j["input"]["kind"], "session");
+  EXPECT_EQ(j["input"]["positions"].get<std::size_t>(), sim->frames.size());
+  EXPECT_EQ(j["input"]["coverage"]["total"]["measured_bins"].get<std::size_t>(), measured);
+  EXPECT_EQ(j["residual"]["noise_source"], "sample-noise");
+  const brdf::PaintSpec fitted = brdf::paint_from_json(j, "fit.json");
+  const auto* truth = spec.cook_torrance();
+  const auto* ct = fitted.cook_torrance();
+  ASSERT_NE(ct, nullptr);
+  ASSERT_NE(truth, nullptr);
+  // A 100-pixel sphere every 6 degrees: the whole-pipeline accuracy is sim_pipeline_itest.cpp's.
+  for (int c = 0; c < 3; ++c) EXPECT_THAT(ct->kd[c], test::NearRel(truth->kd[c], 0.03)) << c;
+  EXPECT_THAT(ct->lobes[1].m, test::NearRel(truth->lobes[1].m, 0.03));
+}
+
+TEST(FitCli, SessionsWithMissingPositionsOrWithoutCalibrationAreRejected) {
+  test_support::SimSessionOptions o = small_sweep();
+  o.step_deg = 45.0;
+  const auto sim = test_support::make_sim_session(sim::sim_paint(brdf::load_paint_file(
+                                                      test::source_dir() / "paints/solid-blue.toml")),
+                                                  o);
+  const fs::path session = sim->dir / "session";
+  write_session(*sim, session, 2);
+  const fs::path out = sim->dir / "fit.json", merl = sim->dir / "t.binary";
+  const std::string calib = " --calib " + sim->calibration_dir().string();
+  auto r = test::run_paintlab("fit " + session.string() + calib + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("2 of 7 light positions are missing (index 5, 6)"));
+  EXPECT_THAT(r.err, HasSubstr("paintlab measure --resume"));
+  r = test::run_paintlab("bin " + session.string() + calib + " --out " + merl.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("missing"));
+  // A complete session whose rig file is unknown needs --calib.
+  const fs::path complete = sim->dir / "complete";
+  write_session(*sim, complete);
+  r = test::run_paintlab("bin " + complete.string() + " --out " + merl.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--calib"));
+  // A folder that is no session.
+  r = test::run_paintlab("bin " + sim->calibration_dir().string() + " --out " + merl.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("not a session folder"));
+  r = test::run_paintlab("fit " + complete.string() + calib + " --variance sideways --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--variance"));
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(merl));
+  EXPECT_FALSE(fs::exists(sim->dir / "t.coverage.exr"));
 }
 
 }  // namespace

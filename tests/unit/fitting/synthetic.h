@@ -8,6 +8,7 @@
 #include <random>
 
 #include "paintlab/brdf/brdf.h"
+#include "paintlab/brdf/merl.h"
 #include "paintlab/brdf/rusinkiewicz.h"
 #include "paintlab/core/geometry.h"
 #include "paintlab/fitting/binning.h"
@@ -42,6 +43,23 @@ inline void sphere_samples(const brdf::Brdf& paint, double angle_deg, int sphere
       }
       out.push_back(hd.theta_h, hd.theta_d, hd.phi_d, rgb, var);
     }
+}
+
+// brdf::tabulate() on one bin in `stride`: bin k * stride + (k * 7919) % stride for
+// k = 0, 1, ..., so every theta_h row keeps about 1 / stride of its bins, scattered over
+// theta_d and phi_d. The other bins stay Empty (written as -1 in a .binary file). Keeps
+// fits of "every bin" tables fast in unit tests without losing the narrow peaks.
+inline brdf::MerlTable tabulate_sparse(const brdf::Brdf& paint, std::size_t stride) {
+  brdf::MerlTable table;
+  for (std::size_t k = 0; k * stride < brdf::kMerlBins; ++k) {
+    const std::size_t b = k * stride + (k * 7919) % stride;
+    if (b >= brdf::kMerlBins) break;
+    const Eigen::Vector3d c = brdf::merl_bin_centre(b);
+    const brdf::DirectionPair d = brdf::directions_from_half_diff({c[0], 0.0, c[1], c[2]});
+    if (d.wi.z() <= 0.0 || d.wo.z() <= 0.0) continue;
+    table.set_value(b, paint.eval(d.wi, d.wo), brdf::BinState::Measured);
+  }
+  return table;
 }
 
 // A whole sweep (angles start..stop in step) binned.

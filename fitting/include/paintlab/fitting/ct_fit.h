@@ -15,6 +15,7 @@
 //    held fixed and get 0), scaled by sqrt(max(1, chi2 / dof)).
 // The lobe is brdf::ct_lobe, the same template the simulator evaluates.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,10 @@ struct CtFitOptions {
   int threads = 0;                // 0 = all cores
   bool covariance = true;
   int chunk_bins = 256;           // bins per residual block
+  // A fit with at most `lobes` lobes (usually one lobe fewer): extra starts keep its lobes
+  // and add the missing ones (roughness from the grid, kd and ks re-solved by NNLS), so the
+  // N-lobe fit ends at least as good as it on the start subsample.
+  std::optional<brdf::CookTorranceParams> warm_start;
   FitDataOptions data;
   void check() const;             // DataError naming the first violated rule
 };

@@ -1,0 +1,157 @@
+// The fitting pipeline on the simulated rig: the simulator renders every light position
+// of a sweep (with flake sparkle where the paint has flakes), frames carry 2 % pixel noise,
+// the calibration folder holds the simulator's truth; extraction, binning and the fits
+// then run as `paintlab fit SESSION` runs them. Accuracy targets of issue 7:
+//  - Cook-Torrance paints with 2 or 3 lobes: kd and ks within 3 %, m within 2 %, r within
+//    5 % of the truth; residual log-RMS within 1.5x of the noise floor;
+//  - the layered pearlescent paint: the residual per region for 1, 2 and 3 lobes;
+//  - the binned table against the truth at measured bins: z-scores near N(0, 1).
+// The figures are printed; docs/fitting.md quotes them.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+#include <optional>
+
+#include "paintlab/brdf/paint.h"
+#include "paintlab/fitting/coverage.h"
+#include "paintlab/fitting/ct_fit.h"
+#include "paintlab/fitting/extraction.h"
+#include "paintlab/sim/paint.h"
+#include "sim_session.h"
+#include "test_util.h"
+
+namespace paintlab::fit {
+namespace {
+
+using test::NearRel;
+
+brdf::PaintSpec paint(const std::string& name) {
+  return brdf::load_paint_file(test::source_dir() / "paints" / (name + ".toml"));
+}
+
+// One binned sweep per paint and setting (each ctest case runs in its own process, so a
+// case renders what it needs). The accuracy cases use the 640x480 rig every 2 degrees
+// (about 1.1 M samples); the pearlescent report a 320x240 image every 3 degrees.
+struct Sweep {
+  bool sparkle = false;
+  bool small = false;
+  VarianceModel variance = VarianceModel::Hdr;
+};
+
+BinnedTable binned(const std::string& name, const Sweep& w) {
+  test_support::SimSessionOptions o;
+  o.sparkle = w.sparkle;
+  o.step_deg = 2.0;
+  if (w.small) {
+    o.width_px = 320;
+    o.height_px = 240;
+    o.focal_length_mm = 12.5;
+    o.step_deg = 3.0;
+  }
+  auto session = test_support::make_sim_session(sim::sim_paint(paint(name)), o);
+  const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());
+  ExtractionStats stats;
+  ExtractionOptions eo;
+  eo.variance = w.variance;
+  BinnedTable t = bin_frames(session->frames, cal, eo, {}, &stats);
+  std::printf("%s%s: %zu frames, %llu samples in %zu bins\n%s", name.c_str(), w.sparkle ? " (sparkle)" : "",
+              session->frames.size(), static_cast<unsigned long long>(stats.samples),
+              t.table.count_in_state(brdf::BinState::Measured), coverage(t.table).describe().c_str());
+  return t;
+}
+
+void report(const char* what, const CookTorranceFit& f) {
+  std::printf("%s: kd [%.4f %.4f %.4f]", what, f.params.kd[0], f.params.kd[1], f.params.kd[2]);
+  for (const auto& l : f.params.lobes)
+    std::printf(" | ks [%.4f %.4f %.4f] m %.4f r %.3f", l.ks[0], l.ks[1], l.ks[2], l.m, l.r);
+  std::printf("\n  log-RMS %.4f, noise floor %.4f (ratio %.2f); peak %.4f glossy %.4f diffuse %.4f; %d iterations, "
+              "%.1f s\n",
+              f.residual.total.log_rms, f.residual.total.noise_floor,
+              f.residual.total.log_rms / f.residual.total.noise_floor, f.residual.regions[0].log_rms,
+              f.residual.regions[1].log_rms, f.residual.regions[2].log_rms, f.summary.iterations, f.summary.time_s);
+}
+
+void expect_within_targets(const brdf::CookTorranceParams& truth, const CookTorranceFit& f) {
+  EXPECT_TRUE(f.summary.converged) << f.summary.termination;
+  ASSERT_EQ(f.params.lobes.size(), truth.lobes.size());
+  for (int c = 0; c < 3; ++c) EXPECT_THAT(f.params.kd[c], NearRel(truth.kd[c], 0.03)) << "kd " << c;
+  for (std::size_t l = 0; l < truth.lobes.size(); ++l) {
+    for (int c = 0; c < 3; ++c)
+      EXPECT_THAT(f.params.lobes[l].ks[c], NearRel(truth.lobes[l].ks[c], 0.03)) << "lobe " << l << " ks " << c;
+    EXPECT_THAT(f.params.lobes[l].m, NearRel(truth.lobes[l].m, 0.02)) << "lobe " << l;
+    EXPECT_THAT(f.params.lobes[l].r, NearRel(truth.lobes[l].r, 0.05)) << "lobe " << l;
+  }
+  EXPECT_LT(f.residual.total.log_rms, 1.5 * f.residual.total.noise_floor);
+}
+
+CookTorranceFit fit(const BinnedTable& t, int lobes, std::uint32_t min_samples = 1,
+                    const brdf::CookTorranceParams* warm = nullptr) {
+  CtFitOptions o;
+  o.lobes = lobes;
+  o.data.min_samples = min_samples;
+  if (warm) o.warm_start = *warm;
+  return fit_cook_torrance(prepare_fit_data(t.table, o.data, &t.noise_variance), o);
+}
+
+TEST(SimPipeline, SilverMetallicThreeLobes) {
+  const brdf::PaintSpec spec = paint("silver-metallic");
+  const CookTorranceFit f = fit(binned("silver-metallic", {}), 3);
+  report("silver-metallic, no sparkle", f);
+  expect_within_targets(*spec.cook_torrance(), f);
+}
+
+TEST(SimPipeline, SolidBlueTwoLobes) {
+  const brdf::PaintSpec spec = paint("solid-blue");
+  const CookTorranceFit f = fit(binned("solid-blue", {}), 2);
+  report("solid-blue", f);
+  expect_within_targets(*spec.cook_torrance(), f);
+}
+
+// With flake sparkle single pixels vary by 100 % and more. Extraction estimates the
+// variance locally (pixel noise and sparkle) and the fit pools phi_d bins to 16 samples.
+// The measured state: kd, the broad flake lobe and the clear coat meet the targets; the
+// medium flake lobe (the one the glints of the narrow lifetime cone dominate) does not,
+// and the residual stays above the noise floor (docs/fitting.md "Sparkle").
+TEST(SimPipeline, SilverMetallicWithSparkle) {
+  const brdf::CookTorranceParams truth = *paint("silver-metallic").cook_torrance();
+  Sweep w;
+  w.sparkle = true;
+  w.variance = VarianceModel::Local;
+  const CookTorranceFit f = fit(binned("silver-metallic", w), 3, 16);
+  report("silver-metallic, sparkle", f);
+  EXPECT_TRUE(f.summary.converged) << f.summary.termination;
+  ASSERT_EQ(f.params.lobes.size(), 3u);
+  for (int c = 0; c < 3; ++c) EXPECT_THAT(f.params.kd[c], NearRel(truth.kd[c], 0.03)) << "kd " << c;
+  for (std::size_t l : {std::size_t{0}, std::size_t{2}}) {
+    for (int c = 0; c < 3; ++c)
+      EXPECT_THAT(f.params.lobes[l].ks[c], NearRel(truth.lobes[l].ks[c], 0.03)) << "lobe " << l << " ks " << c;
+    EXPECT_THAT(f.params.lobes[l].m, NearRel(truth.lobes[l].m, 0.02)) << "lobe " << l;
+  }
+  EXPECT_THAT(f.params.lobes[1].m, NearRel(truth.lobes[1].m, 0.10));
+}
+
+// The layered pearlescent paint is no sum of Cook-Torrance lobes: the residual per region
+// is reported for 1, 2 and 3 lobes (each fit warm-started from the previous one). The
+// objective the fit minimises never rises with more lobes; the peak region's residual falls.
+TEST(SimPipeline, PearlescentResidualFallsFromOneToThreeLobes) {
+  Sweep w;
+  w.small = true;
+  const BinnedTable t = binned("pearlescent", w);
+  std::optional<brdf::CookTorranceParams> warm;
+  std::vector<CookTorranceFit> fits;
+  for (int lobes = 1; lobes <= 3; ++lobes) {
+    fits.push_back(fit(t, lobes, 1, warm ? &*warm : nullptr));
+    warm = fits.back().params;
+    report(("pearlescent, " + std::to_string(lobes) + " lobe(s)").c_str(), fits.back());
+    EXPECT_TRUE(fits.back().summary.converged) << fits.back().summary.termination;
+  }
+  for (std::size_t k = 1; k < fits.size(); ++k)
+    EXPECT_LE(fits[k].summary.final_cost, fits[k - 1].summary.final_cost * 1.005) << k + 1 << " lobes";
+  EXPECT_LT(fits[2].residual.total.log_rms, fits[0].residual.total.log_rms);
+  EXPECT_LT(fits[2].residual.regions[0].log_rms, 0.8 * fits[0].residual.regions[0].log_rms);
+}
+
+}  // namespace
+}  // namespace paintlab::fit
