@@ -94,16 +94,16 @@ void export_session(const ExportRequest& r, ExportResult& result) {
     }
     result.fit_s = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
+    fit::AxfPaint paint = paint_of_fits(result.fits);
+    paint.provenance = session_provenance(session);
+    if (!r.name.empty()) paint.name = r.name;
+    fit::write_axf_file(*r.axf, paint);  // checks the paint first: nothing written when it is wrong
+    result.paint = fit::read_axf_file(*r.axf);  // as written (export date, software version)
+    result.lines.push_back(axf_line(*r.axf, *result.paint));
     if (r.fit_out) {
       write_json_file(*r.fit_out, result.fits.front());
       result.lines.push_back(fmt::format("wrote {}", r.fit_out->string()));
     }
-    fit::AxfPaint paint = paint_of_fits(result.fits);
-    paint.provenance = session_provenance(session);
-    if (!r.name.empty()) paint.name = r.name;
-    fit::write_axf_file(*r.axf, paint);
-    result.paint = fit::read_axf_file(*r.axf);  // as written (export date, software version)
-    result.lines.push_back(axf_line(*r.axf, *result.paint));
     result.write_s += seconds_since(t0);
   }
   if (r.merl) {
