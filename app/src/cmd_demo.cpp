@@ -186,19 +186,33 @@ Json calibration_errors(const RigConfig& rig, const sim::SimConfig& truth) {
     out["reprojection_rms_px"] = cal.intrinsics()->rms_px;
     out["focal_error_rel"] = (cam.fx() - K(0, 0)) / K(0, 0);
     out["principal_point_error_px"] = std::hypot(cam.cx() - K(0, 2), cam.cy() - K(1, 2));
+    // The calibration's own 1-sigma of the principal point (a long lens leaves it loose).
+    const Json& cj = cal.files().at(calib::kCameraFile).json;
+    if (cj.contains("std") && cj["std"].contains("cx"))
+      out["principal_point_std_px"] = std::hypot(cj["std"].value("cx", 0.0), cj["std"].value("cy", 0.0));
   }
   const sim::SimWorld world(truth);
   const Vec3 centre_true = world.sphere_centre_cam();
   if (cal.sphere()) out["sphere_centre_error_mm"] = (cal.sphere()->centre_cam_m - centre_true).norm() * 1e3;
   if (cal.light() && cal.sphere()) {
-    // Direction from the sphere centre to the LED, calibrated vs true, worst over the plan.
-    double worst = 0;
+    // The angle at the sphere centre between the camera and the LED (what the BRDF sees,
+    // and independent of a small rotation of the whole camera frame, which a long lens's
+    // principal point leaves uncertain), calibrated vs true, worst over the plan; and the
+    // LED direction in the camera frame itself.
+    double worst = 0, worst_dir = 0;
+    const Vec3 c_cal = cal.sphere()->centre_cam_m;
     for (double a : rig.plan.angles_deg()) {
-      const Vec3 c = (cal.led_position_cam(a) - cal.sphere()->centre_cam_m).normalized();
-      const Vec3 t = (world.led_position_cam(a) - centre_true).normalized();
-      worst = std::max(worst, std::acos(std::clamp(c.dot(t), -1.0, 1.0)) * 180.0 / M_PI);
+      const Vec3 l_cal = (cal.led_position_cam(a) - c_cal).normalized();
+      const Vec3 l_true = (world.led_position_cam(a) - centre_true).normalized();
+      auto angle = [](const Vec3& u, const Vec3& v) { return std::acos(std::clamp(u.dot(v), -1.0, 1.0)) * 180.0 / M_PI; };
+      const double phase_cal = angle(l_cal, (-c_cal).normalized());
+      const double phase_true = angle(l_true, (-centre_true).normalized());
+      worst = std::max(worst, std::abs(phase_cal - phase_true));
+      worst_dir = std::max(worst_dir, angle(l_cal, l_true));
     }
     out["light_angle_error_deg"] = worst;
+    out["light_direction_error_deg"] = worst_dir;
+    out["sphere_distance_error_mm"] = (c_cal.norm() - centre_true.norm()) * 1e3;
   }
   if (cal.has(calib::kResponseFile)) {
     // g(u) against the true inverse response over the curve's used range, after one scale
@@ -232,11 +246,30 @@ std::string rgb(const Json& a) {
   return s;
 }
 
+// The paint as a camera with these channel weights sees it: Cook-Torrance is linear in kd
+// and ks (F, D, G do not depend on the channel), so a monochrome camera measures w . kd and
+// w . ks per lobe. Other models are returned unchanged.
+Json truth_seen_by_camera(const Json& truth, const std::array<double, 3>& w, bool mono) {
+  if (!mono || truth.value("model", "") != "cook-torrance") return truth;
+  Json t = truth;
+  auto project = [&](Json& rgb) {
+    const double v = w[0] * rgb[0].get<double>() + w[1] * rgb[1].get<double>() + w[2] * rgb[2].get<double>();
+    rgb = Json::array({v, v, v});
+  };
+  if (t.contains("kd")) project(t["kd"]);
+  if (t.contains("lobes"))
+    for (auto& l : t["lobes"]) project(l["ks"]);
+  return t;
+}
+
 void print_summary(const Json& s) {
   say("");
   say(fmt::format("== paintlab demo: {} ==", s["paint"].get<std::string>()));
-  const Json& truth = s["truth"];
+  const Json& truth = s.contains("truth_seen_by_camera") ? s["truth_seen_by_camera"] : s["truth"];
   const Json& fit = s["fit"];
+  if (s.contains("truth_seen_by_camera"))
+    say("(a monochrome camera: the truth column is the paint as the camera sees it, kd and ks weighted by its "
+        "channel weights; the paint's own RGB is under \"truth\" in summary.json)");
   say(fmt::format("{:<14} {:<28} {:<28} {}", "parameter", "truth", "fit", "std dev"));
   const Json& sd = fit.contains("stddev") ? fit["stddev"] : Json::object();
   say(fmt::format("{:<14} {:<28} {:<28} {}", "kd", rgb(truth.value("kd", Json())), rgb(fit.value("kd", Json())),
@@ -340,6 +373,8 @@ int run_demo(const DemoArgs& a) {
   Json summary;
   summary["paint"] = name;
   summary["truth"] = brdf::to_json(paint.spec);
+  // Every camera format the rig supports is monochrome (devices/camera.h: Mono8/12/16).
+  summary["truth_seen_by_camera"] = truth_seen_by_camera(summary["truth"], truth.camera.mono_weights, true);
   summary["fit"] = fit;
   summary["calibration"] = calibration_errors(rig, truth);
   summary["timings_s"] = {{"calibrate", t_cal + t_check}, {"measure", t_measure}, {"fit", t_fit},
