@@ -150,10 +150,31 @@ double quantile_of(const Image<std::uint16_t>& img, double q) {
   return v[k];
 }
 
+// A merger for the radiometric calibration and the frame geometry. Building one tabulates
+// the response and noise at every raw value, which costs more than merging a frame, so the
+// shots of a step share it; a recalibrated response/dark/flat (other provenance: date and
+// input checksums) or another geometry builds a new one.
+const acq::HdrMerger& merger_for(const acq::HdrCalibration& hdr, int width, int height, int bit_depth) {
+  struct Cache {
+    std::string key;
+    std::unique_ptr<acq::HdrMerger> merger;
+  };
+  static Cache cache;
+  std::string key = fmt::format("{}x{}x{}", width, height, bit_depth);
+  key += hdr.response ? hdr.response->provenance.to_json().dump() : "-";
+  key += hdr.dark ? hdr.dark->provenance.to_json().dump() : "-";
+  key += hdr.flat ? hdr.flat->provenance.to_json().dump() : "-";
+  if (!cache.merger || cache.key != key) {
+    cache.merger = std::make_unique<acq::HdrMerger>(hdr, acq::HdrOptions{}, width, height, 1, bit_depth);
+    cache.key = std::move(key);
+  }
+  return *cache.merger;
+}
+
 // Linear DN/s of one frame, and the clipped pixels.
 void linearise(const acq::HdrCalibration& hdr, Shot* s) {
   const Image<std::uint16_t>& raw = s->raw;
-  acq::HdrMerger m(hdr, acq::HdrOptions{}, raw.width(), raw.height(), 1, s->bit_depth);
+  const acq::HdrMerger& m = merger_for(hdr, raw.width(), raw.height(), s->bit_depth);
   calib::StackFrame f{&raw, s->exposure_s};
   acq::HdrResult r = m.merge(std::span<const calib::StackFrame>(&f, 1));
   s->rate = r.image.plane(r.image.names.front());
@@ -227,7 +248,11 @@ Shot capture_shot(CalibSession& s, const std::string& step, const std::string& n
   const dev::ExposureRange range = value_or_throw(cam.exposure_range());
   const double full = std::ldexp(1.0, s.bit_depth) - 1.0;
   const double black = s.hdr.dark ? s.hdr.dark->mean_bias_dn : 0.0;
-  double t = std::clamp(0.01, range.min_s, range.max_s);
+  // The search starts from the exposure the step's previous shot ended with (consecutive
+  // shots of a step see the same target and light): usually one frame is enough.
+  const std::string exposure_key = fmt::format("{}/{}", step, led_on ? "on" : "off");
+  const auto previous = s.last_exposure_s.find(exposure_key);
+  double t = std::clamp(previous != s.last_exposure_s.end() ? previous->second : 0.01, range.min_s, range.max_s);
   dev::Frame frame;
   if (exposure_s) {
     value_or_throw(cam.set_exposure(*exposure_s));
@@ -250,6 +275,7 @@ Shot capture_shot(CalibSession& s, const std::string& step, const std::string& n
     t = next;
   }
   if (led_on) value_or_throw(d.light->off());
+  if (!exposure_s) s.last_exposure_s[exposure_key] = frame.meta.exposure_s;
   Shot shot;
   shot.name = name;
   shot.raw = to_mono(frame.pixels);

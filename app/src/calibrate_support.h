@@ -5,6 +5,7 @@
 // the simulator on a simulated one); the captures kept in calib/captures/ with checksums.
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -47,6 +48,7 @@ struct CalibSession {
   Json serials = Json::object();
   int bit_depth = 16;
   std::vector<std::filesystem::path> captured;  // files saved by this session
+  std::map<std::string, double> last_exposure_s;  // per step and LED state: where auto-exposure starts
 
   dev::Camera& camera() { return *devices->camera; }
 };

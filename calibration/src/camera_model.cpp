@@ -24,13 +24,14 @@ Vec2 CameraModel::undistort(const Vec2& xy_distorted) const {
     const double r2 = x * x + y * y;
     const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
     const double dradial_dr2 = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);
-    Vec2 f = distort(p) - xy_distorted;
-    Eigen::Matrix2d J;
-    J(0, 0) = radial + 2.0 * x * x * dradial_dr2 + 2.0 * p1 * y + 6.0 * p2 * x;
-    J(0, 1) = 2.0 * x * y * dradial_dr2 + 2.0 * p1 * x + 2.0 * p2 * y;
-    J(1, 0) = 2.0 * x * y * dradial_dr2 + 2.0 * p1 * x + 2.0 * p2 * y;
-    J(1, 1) = radial + 2.0 * y * y * dradial_dr2 + 6.0 * p1 * y + 2.0 * p2 * x;
-    Vec2 step = J.partialPivLu().solve(f);
+    const Vec2 f = distort(p) - xy_distorted;
+    // The 2x2 Jacobian (symmetric) solved in closed form.
+    const double a = radial + 2.0 * x * x * dradial_dr2 + 2.0 * p1 * y + 6.0 * p2 * x;
+    const double b = 2.0 * x * y * dradial_dr2 + 2.0 * p1 * x + 2.0 * p2 * y;
+    const double d = radial + 2.0 * y * y * dradial_dr2 + 6.0 * p1 * y + 2.0 * p2 * x;
+    const double det = a * d - b * b;
+    if (!(std::abs(det) > 1e-300)) break;
+    Vec2 step((d * f.x() - b * f.y()) / det, (a * f.y() - b * f.x()) / det);
     // Far outside the valid region of a strongly distorting model the Newton step can
     // overshoot: damp it so the iteration stays bounded.
     const double n = step.norm();

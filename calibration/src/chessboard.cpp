@@ -8,6 +8,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "cv_util.h"
 #include "paintlab/core/error.h"
@@ -91,27 +93,67 @@ struct Window {
 // change corner positions by < 0.001 px on synthetic boards, so the cheaper form is used.
 constexpr int kParams = 12;
 
-struct SaddleCost {
-  const Window* w;
-  template <class T>
-  bool operator()(const T* p, T* r) const {
-    const T s = exp(p[4]) * T(M_SQRT2);
-    const T n1x = -sin(p[2]), n1y = cos(p[2]);
-    const T n2x = -sin(p[3]), n2y = cos(p[3]);
-    const int side = 2 * w->h + 1;
+// The model and its analytic Jacobian (about 4x faster than automatic differentiation with
+// 12-wide jets; the corner fits dominate the cost of a calibration).
+class SaddleCost final : public ceres::CostFunction {
+ public:
+  explicit SaddleCost(const Window* w) : w_(w) {
+    set_num_residuals(static_cast<int>(w->values.size()));
+    mutable_parameter_block_sizes()->push_back(kParams);
+  }
+
+  bool Evaluate(double const* const* parameters, double* r, double** jacobians) const override {
+    const double* x = parameters[0];
+    double* J = jacobians ? jacobians[0] : nullptr;
+    const double s = std::exp(x[4]) * M_SQRT2;
+    if (!std::isfinite(s) || !(s > 0)) return false;
+    const double inv_s = 1.0 / s;
+    const double c1 = std::cos(x[2]), s1 = std::sin(x[2]);
+    const double c2 = std::cos(x[3]), s2 = std::sin(x[3]);
+    const double n1x = -s1, n1y = c1, n2x = -s2, n2y = c2;
+    constexpr double k2_sqrtpi = 1.1283791670955126;  // 2 / sqrt(pi)
+    const int side = 2 * w_->h + 1;
     for (int j = 0; j < side; ++j) {
-      const T dy = T(j - w->h) - p[1];
+      const double dy = (j - w_->h) - x[1];
       for (int i = 0; i < side; ++i) {
-        const T dx = T(i - w->h) - p[0];
-        const T d1 = n1x * dx + n1y * dy;
-        const T d2 = n2x * dx + n2y * dy;
-        const T P = erf(d1 / s) * erf(d2 / s);
-        r[j * side + i] = p[5] + p[8] * dx + p[9] * dy + (p[6] + p[10] * dx + p[11] * dy) * P + p[7] * P * P -
-                          T(w->values[j * side + i]);
+        const int k = j * side + i;
+        const double dx = (i - w_->h) - x[0];
+        const double z1 = (n1x * dx + n1y * dy) * inv_s;
+        const double z2 = (n2x * dx + n2y * dy) * inv_s;
+        const double e1 = std::erf(z1), e2 = std::erf(z2);
+        const double P = e1 * e2;
+        const double B = x[6] + x[10] * dx + x[11] * dy;
+        r[k] = x[5] + x[8] * dx + x[9] * dy + B * P + x[7] * P * P - w_->values[static_cast<std::size_t>(k)];
+        if (!J) continue;
+        // dE_k/dz_k, then P's derivatives through z_k = d_k / s.
+        const double g1 = k2_sqrtpi * std::exp(-z1 * z1), g2 = k2_sqrtpi * std::exp(-z2 * z2);
+        const double a1 = e2 * g1 * inv_s, a2 = e1 * g2 * inv_s;  // dP/dd_1, dP/dd_2
+        const double dPdx = -(a1 * n1x + a2 * n2x);
+        const double dPdy = -(a1 * n1y + a2 * n2y);
+        const double dPdt1 = a1 * (-c1 * dx - s1 * dy);
+        const double dPdt2 = a2 * (-c2 * dx - s2 * dy);
+        const double dPdls = -(e2 * g1 * z1 + e1 * g2 * z2);
+        const double dIdP = B + 2.0 * x[7] * P;
+        double* row = J + static_cast<std::size_t>(k) * kParams;
+        row[0] = -x[8] - x[10] * P + dIdP * dPdx;
+        row[1] = -x[9] - x[11] * P + dIdP * dPdy;
+        row[2] = dIdP * dPdt1;
+        row[3] = dIdP * dPdt2;
+        row[4] = dIdP * dPdls;
+        row[5] = 1.0;
+        row[6] = P;
+        row[7] = P * P;
+        row[8] = dx;
+        row[9] = dy;
+        row[10] = dx * P;
+        row[11] = dy * P;
       }
     }
     return true;
   }
+
+ private:
+  const Window* w_;
 };
 
 bool load_window(const cv::Mat& img, int cx, int cy, int h, Window* w) {
@@ -176,7 +218,7 @@ SaddleResult fit_saddle(const cv::Mat& img, const Vec2& start, double theta1, do
     p[7] = p[8] = p[9] = p[10] = p[11] = 0.0;
   }
   const int n = static_cast<int>(w.values.size());
-  auto* cost = new ceres::AutoDiffCostFunction<SaddleCost, ceres::DYNAMIC, kParams>(new SaddleCost{&w}, n);
+  auto* cost = new SaddleCost(&w);
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   std::unique_ptr<ceres::CostFunction> owned(cost);
@@ -306,13 +348,18 @@ ChessboardDetection detect_chessboard(const Image<std::uint16_t>& image, int bit
     return det;
   }
 
+  // The corners are independent: fitted in parallel, collected in order.
+  std::vector<SaddleResult> fits(static_cast<std::size_t>(n));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, fits.size(), 4), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const int h = std::clamp(static_cast<int>(std::floor(options.window_frac * spacing[i])),
+                               options.min_half_window_px, options.max_half_window_px);
+      fits[i] = fit_saddle(img, det.corners_px[i], std::atan2(ex[i].y(), ex[i].x()), std::atan2(ey[i].y(), ey[i].x()), h);
+    }
+  });
   std::vector<double> sigmas, contrasts;
-  for (int k = 0; k < n; ++k) {
-    const std::size_t i = static_cast<std::size_t>(k);
-    const int h = std::clamp(static_cast<int>(std::floor(options.window_frac * spacing[i])), options.min_half_window_px,
-                             options.max_half_window_px);
-    SaddleResult f = fit_saddle(img, det.corners_px[i], std::atan2(ex[i].y(), ex[i].x()),
-                                std::atan2(ey[i].y(), ey[i].x()), h);
+  for (std::size_t i = 0; i < fits.size(); ++i) {
+    const SaddleResult& f = fits[i];
     if (!f.ok) {
       ++det.fallback;
       continue;

@@ -1,6 +1,6 @@
 // The technician's procedure on a simulated rig, through the real drivers (Modbus TCP
-// turntable, GigE Vision camera on 127.0.0.1): dark, response, flat, then
-// `paintlab calibrate all --capture`, then `paintlab check --capture` passes; after the
+// turntable, GigE Vision camera on 127.0.0.1): `paintlab calibrate all --capture` (every
+// step, the radiometric ones included), then `paintlab check --capture` passes; after the
 // sphere is knocked out of place the check fails and says what to do.
 #include <gtest/gtest.h>
 
@@ -79,30 +79,20 @@ TEST(CalibrateSimCli, CalibrateAllThenCheckPassesAndAMovedSphereFails) {
   test::write_text(dir / "rig.toml", rig_toml(calib, "[0.0005, -0.0003, 0.0002]"));
   const std::string rig = (dir / "rig.toml").string();
 
-  // The radiometric steps first (their images linearise everything after).
-  auto r = test::run_paintlab("calibrate dark --rig " + rig + " --capture");
-  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  r = test::run_paintlab("calibrate response --rig " + rig + " --capture");
-  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  fs::create_directories(dir / "flat");
-  for (int k = 0; k < 2; ++k) {
-    r = test::run_paintlab(fmt::format("sim render --rig {} --scene flat --exposure 10 --frame {} --out {}", rig, k,
-                                       (dir / "flat" / fmt::format("flat{}.png", k)).string()));
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-  }
-  r = test::run_paintlab("calibrate flat --rig " + rig + " --images " + (dir / "flat").string() + " --exposures 0.01,0.01");
-  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-
-  r = test::run_paintlab("calibrate all --rig " + rig + " --capture", 500);
+  // Every step in order: intrinsics, dark, response, flat (whose images linearise the
+  // steps after them), sphere, light, scale.
+  auto r = test::run_paintlab("calibrate all --rig " + rig + " --capture", 240);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   std::printf("%s", r.out.c_str());
-  for (const char* step : {"intrinsics:", "sphere:", "light:", "scale:"}) EXPECT_THAT(r.out, ::testing::HasSubstr(step));
-  for (const char* f : {"camera.json", "sphere.json", "light.json", "scale.json"}) EXPECT_TRUE(fs::exists(calib / f)) << f;
+  for (const char* step : {"intrinsics:", "dark:", "response:", "flat:", "sphere:", "light:", "scale:"})
+    EXPECT_THAT(r.out, ::testing::HasSubstr(step));
+  for (const char* f : {"camera.json", "dark.json", "response.json", "flat.json", "sphere.json", "light.json", "scale.json"})
+    EXPECT_TRUE(fs::exists(calib / f)) << f;
   Json cam = read_json_file(calib / "camera.json");
   EXPECT_NEAR(cam["K"][0][0].get<double>(), 3008.0, 3008.0 * 0.001);
   EXPECT_EQ(cam["provenance"]["devices"]["camera"], "PAINTLAB-SIM-1");
 
-  r = test::run_paintlab("check --rig " + rig + " --capture", 300);
+  r = test::run_paintlab("check --rig " + rig + " --capture", 120);
   std::printf("%s", r.out.c_str());
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_THAT(r.out, ::testing::HasSubstr("RIG OK"));
@@ -111,7 +101,7 @@ TEST(CalibrateSimCli, CalibrateAllThenCheckPassesAndAMovedSphereFails) {
 
   // The sphere knocked 1 mm sideways: the same calibration folder, a changed world.
   test::write_text(dir / "moved.toml", rig_toml(calib, "[0.0005, 0.0007, 0.0002]"));
-  r = test::run_paintlab("check --rig " + (dir / "moved.toml").string() + " --capture", 300);
+  r = test::run_paintlab("check --rig " + (dir / "moved.toml").string() + " --capture", 120);
   std::printf("%s", r.out.c_str());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.out, ::testing::HasSubstr("RIG NOT FIT TO MEASURE"));

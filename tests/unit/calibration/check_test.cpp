@@ -43,17 +43,7 @@ ImageF rate_image(sim::SimWorld& w, const sim::SimPaint& paint, double angle, do
                   Image<std::uint8_t>* saturated = nullptr) {
   sim::ExposureSettings es;
   es.exposure_s = exposure_s;
-  const auto& sp = w.config().sensor;
-  Image<std::uint16_t> raw = w.sensor().expose(w.render_with(paint, angle, true), es);
-  const double span = sp.adc_max_dn() - sp.black_level_dn;
-  ImageF out(raw.width(), raw.height(), 1);
-  if (saturated) *saturated = Image<std::uint8_t>(raw.width(), raw.height(), 1, 0);
-  for (std::size_t i = 0; i < raw.size(); ++i) {
-    const double x = (raw.values()[i] - sp.black_level_dn) / span;
-    out.values()[i] = static_cast<float>((x > 0 ? w.response().inverse(x) * span : x * span) / exposure_s);
-    if (saturated) saturated->values()[i] = raw.values()[i] >= sp.adc_max_dn() ? 1 : 0;
-  }
-  return out;
+  return linearise_raw(w, w.sensor().expose(w.render_with(paint, angle, true), es), exposure_s, saturated);
 }
 
 // A calibrated good rig, computed once: the files in a temporary calibration folder.

@@ -82,6 +82,16 @@ struct NormalizedMap {
     return {(x + 0.5) / oversample - 0.5, (y + 0.5) / oversample - 0.5};
   }
   const Vec2& at(int x, int y) const { return xy[static_cast<std::size_t>(y) * width + x]; }
+  // Bilinear interpolation between the cell centres at fine-grid coordinates (fx, fy)
+  // (linear extrapolation past the last row): the lens mapping is smooth, so over a third
+  // of a pixel this differs from undistorting by ~1e-5 px, at a fraction of the cost.
+  Vec2 interpolate(double fx, double fy) const {
+    const int rows = static_cast<int>(xy.size()) / width;
+    const int i = std::clamp(static_cast<int>(std::floor(fx)), 0, width - 2);
+    const int j = std::clamp(static_cast<int>(std::floor(fy)), 0, rows - 2);
+    const double u = fx - i, v = fy - j;
+    return (1.0 - v) * ((1.0 - u) * at(i, j) + u * at(i + 1, j)) + v * ((1.0 - u) * at(i, j + 1) + u * at(i + 1, j + 1));
+  }
 };
 
 // Renders on the fine grid (supersampling cells that an edge crosses), blurs there with the
@@ -118,8 +128,9 @@ inline Image<std::uint16_t> render_chessboard(const ChessboardScene& sc, const R
           const int n = sc.supersample;
           for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i) {
-              Vec2 q = map->pixel(x - 0.5 + (i + (j + 0.5) / n) / n, y - 0.5 + (j + (i + 0.5) / n) / n), b;
-              sum += board_point(cam_from_board, cam.normalized(q), &b) ? board_value(sc, b) : sc.background;
+              const Vec2 q = map->interpolate(x - 0.5 + (i + (j + 0.5) / n) / n, y - 0.5 + (j + (i + 0.5) / n) / n);
+              Vec2 b;
+              sum += board_point(cam_from_board, q, &b) ? board_value(sc, b) : sc.background;
             }
           v = sum / (n * n);
         }
