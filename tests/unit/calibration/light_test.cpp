@@ -71,6 +71,32 @@ TEST(LightSim, LedCircleFromHighlightsMatchesTheTruth) {
   // The test's own truth conversion agrees with the simulator.
   const LightModel truth = truth_light(world);
   EXPECT_LT((truth.led_position_cam(37.0) - world.led_position_cam(37.0)).norm(), 1e-4);
+
+  // The chain a technician runs: the same highlights on the sphere fitted from its
+  // silhouette (sphere_test.cpp: centre within 0.1 mm, here 0.05 mm, mostly in depth). The
+  // LED directions hold; the arm radius, seen through parallax across the 40 mm sphere only,
+  // moves by about 80 times the sphere's depth error (0.2 % needs the depth within 15 um).
+  std::vector<SphereImage> whites;
+  for (double a : {90.0, 270.0})
+    whites.push_back({"white-" + std::to_string(static_cast<int>(a)),
+                      expose_linear(world, world.render_with(sim::reference_paint(0.99), a, true))});
+  SphereOptions so;
+  so.radius_m = world.sphere_radius_m();
+  const SphereFit fitted = fit_sphere(whites, truth_camera(world), so);
+  const LightCalibration chained = calibrate_light(images, truth_camera(world), fitted, rig.geometry);
+  double chained_dir = 0;
+  for (const auto& h : chained.highlights) {
+    ASSERT_TRUE(h.found) << h.name << ": " << h.reason;
+    chained_dir = std::max(chained_dir, rad_to_deg(angle_between(chained.model.led_position_cam(h.table_angle_deg) - C,
+                                                                 world.led_position_cam(h.table_angle_deg) - C)));
+  }
+  const Vec3 sphere_err = fitted.centre_cam_m - C;
+  std::printf("on the fitted sphere (centre error %.4f mm, depth %+.4f mm): light rms %.4f deg, worst LED direction "
+              "error %.4f deg; arm radius %.5f m (%+.3f %%, std %.5f)\n",
+              sphere_err.norm() * 1e3, sphere_err.z() * 1e3, chained.rms_deg, chained_dir, chained.model.arm_radius_m,
+              100 * (chained.model.arm_radius_m / led.arm_radius_m - 1), chained.arm_radius_std_m);
+  EXPECT_LT(chained_dir, 0.1);
+  EXPECT_THAT(chained.model.arm_radius_m, test::NearRel(led.arm_radius_m, 0.01));
 }
 
 TEST(LightSim, LedOffGivesNoHighlightAndTheFitNamesTheImages) {
@@ -88,3 +114,4 @@ TEST(LightSim, LedOffGivesNoHighlightAndTheFitNamesTheImages) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("dark-30 (30 deg): no highlight"));
   }
 }
+
