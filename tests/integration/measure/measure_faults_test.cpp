@@ -5,10 +5,15 @@
 // gone.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include "measure_support.h"
 #include "paintlab/acquisition/runner.h"
 #include "paintlab/acquisition/session.h"
+#include "paintlab/core/image_io.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/sim/world.h"
 #include "paintlab/sim/peers/gige_camera.h"
 #include "paintlab/sim/peers/sim_light.h"
 #include "paintlab/sim/peers/sim_rig.h"
@@ -138,4 +143,84 @@ TEST_F(MeasureFaults, StuckLedIsDetectedAndNothingIsJournaled) {
   EXPECT_TRUE(r.device_fault);
   EXPECT_NE(r.stop_reason.find("LED"), std::string::npos) << r.stop_reason;
   EXPECT_EQ(journal_lines(s), 0) << "a position measured without light must not be journaled";
+}
+
+TEST_F(MeasureFaults, CameraGoneStopsSafelyAndTheSessionResumesWhenItIsBack) {
+  acq::SessionDir s = create_session("camera-gone");
+  devices_.sim->camera()->stop();  // unplugged: no answers on 127.0.0.1:3956
+  acq::RunSummary r = run(s, 1);
+  EXPECT_FALSE(r.complete);
+  EXPECT_TRUE(r.device_fault);
+  EXPECT_NE(r.stop_reason.find("camera"), std::string::npos) << r.stop_reason;
+  EXPECT_FALSE(devices_.sim->light()->emitting());
+  EXPECT_EQ(journal_lines(s), 0);
+  // Plugged back in: `paintlab measure --resume` is a new process with new connections.
+  devices_ = app::RigDevices();  // first close everything (the port lock is per camera)
+  devices_ = app::open_rig_devices(rig_);
+  camera_ = app::prepare_camera(*devices_.camera, rig_);
+  acq::SessionDir again = acq::SessionDir::open(dir_ / "camera-gone");
+  acq::RunSummary r2 = run(again);
+  EXPECT_TRUE(r2.complete) << r2.stop_reason;
+  EXPECT_EQ(journal_lines(again), kPositions);
+}
+
+// The merged radiance of a sweep against the simulator's truth at every sphere pixel:
+// the merge of the frames the real drivers fetched must equal the mean rate the simulated
+// sensor was driven with (signal + dark current, in the output's DN per second), within
+// the variance the merge itself reports.
+TEST_F(MeasureFaults, MergedRadianceMatchesTheSimulatorsTruthWithinTheNoise) {
+  acq::SessionDir s = create_session("truth");
+  sim::SimWorld& world = devices_.sim->world();
+  const sim::SensorParams& p = world.config().sensor;
+  const double shift = std::ldexp(1.0, dev::bit_depth(camera_.format) - p.adc_bits);
+  acq::HdrOptions options;
+  options.black_dn = p.black_level_dn * shift;
+  options.saturation_dn = (p.adc_max_dn() - 1) * shift;
+  const double gain = world.sensor().gain_dn_per_e(camera_.gain_db) * shift;
+  options.noise = {p.read_noise_e * gain, gain, "sim sensor truth"};
+  options.floor_dn = 3.0 * p.read_noise_e * gain;
+  acq::HdrMerger merger(acq::HdrCalibration{}, options, rig_.geometry.image_width_px, rig_.geometry.image_height_px, 1,
+                        dev::bit_depth(camera_.format));
+  acq::MergeFn merge = [&](const std::vector<dev::Frame>& frames) {
+    std::vector<calib::StackFrame> stack;
+    for (const auto& f : frames) stack.push_back({&f.pixels, f.meta.exposure_s});
+    return merger.merge(stack).image;
+  };
+  acq::RunnerOptions o;
+  acq::Runner runner(s, {*devices_.turntable, *devices_.light, *devices_.camera, *devices_.clock}, merge, o);
+  std::atomic<bool> stop{false};
+  ASSERT_TRUE(runner.run(stop).complete);
+
+  const ImageF coverage = world.sphere_coverage();
+  const std::vector<std::uint32_t>& hot = world.sensor().hot_pixels();
+  std::vector<double> z;
+  for (const acq::JournalEntry& e : s.journal().read()) {
+    const ExrImage img = read_exr(s.dir() / e.file);
+    // The world rendered at the angle the table really reached (the encoder's read-back).
+    const ImageF radiance = world.render_at(e.angle_read_deg, true);
+    const ImageF& y = img.plane("Y");
+    const ImageF& var = img.plane("var.Y");
+    const ImageF& valid = img.plane("valid");
+    for (int py = 0; py < y.height(); ++py)
+      for (int px = 0; px < y.width(); ++px) {
+        const std::size_t i = static_cast<std::size_t>(py) * y.width() + px;
+        if (coverage.data()[i] < 0.999f || valid.data()[i] < 0.5f) continue;
+        if (std::binary_search(hot.begin(), hot.end(), static_cast<std::uint32_t>(i))) continue;
+        const double truth = (radiance.data()[i] * world.sensor().electrons_per_s_per_radiance(px, py) +
+                              world.sensor().dark_e_per_s(px, py)) * gain;
+        z.push_back((y.data()[i] - truth) / std::sqrt(var.data()[i]));
+      }
+  }
+  ASSERT_GT(z.size(), 5000u);
+  double mean = 0, sq = 0;
+  for (double v : z) mean += v;
+  mean /= static_cast<double>(z.size());
+  for (double v : z) sq += (v - mean) * (v - mean);
+  const double sd = std::sqrt(sq / static_cast<double>(z.size() - 1));
+  std::sort(z.begin(), z.end());
+  std::cout << z.size() << " sphere pixels: z = (merged - truth) / sqrt(var): mean " << mean << ", sd " << sd
+            << ", median " << z[z.size() / 2] << "\n";
+  EXPECT_LT(std::abs(mean), 0.1);
+  EXPECT_GT(sd, 0.8);
+  EXPECT_LT(sd, 1.25);
 }
