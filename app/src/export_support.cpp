@@ -36,7 +36,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 std::vector<fit::FitModel> models_of(const std::string& s) {
-  if (s == "both") return {fit::FitModel::CookTorrance, fit::FitModel::AxfCarPaint};
+  // The AxF car paint first: it is the paint of the file (model axf-carpaint), the
+  // Cook-Torrance fit rides along in /cook_torrance.
+  if (s == "both") return {fit::FitModel::AxfCarPaint, fit::FitModel::CookTorrance};
   return {fit::fit_model_from_string(s, "--model")};
 }
 
