@@ -274,10 +274,13 @@ BENCHMARK(BM_MemcpyStack16BitMono)->Unit(benchmark::kMillisecond)->UseRealTime()
 // Keeps each benchmark's real time per iteration (ms) for the summary.
 class Collecting : public benchmark::ConsoleReporter {
  public:
-  std::map<std::string, double> ms;
+  std::map<std::string, double> ms, cpu_ms;
   void ReportRuns(const std::vector<Run>& runs) override {
     for (const Run& r : runs)
-      if (r.run_type == Run::RT_Iteration) ms[r.benchmark_name()] = r.GetAdjustedRealTime();
+      if (r.run_type == Run::RT_Iteration) {
+        ms[r.benchmark_name()] = r.GetAdjustedRealTime();
+        cpu_ms[r.benchmark_name()] = r.GetAdjustedCPUTime();
+      }
     ConsoleReporter::ReportRuns(runs);
   }
 };
@@ -291,23 +294,32 @@ int main(int argc, char** argv) {
   Collecting reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   // The time of the run whose name starts with `prefix` (names carry /min_time:.../real_time).
-  auto get = [&](const std::string& prefix) {
-    for (const auto& [name, ms] : reporter.ms)
-      if (name.rfind(prefix, 0) == 0) return ms;
+  auto find = [](const std::map<std::string, double>& m, const std::string& prefix) {
+    for (const auto& [name, v] : m)
+      if (name.rfind(prefix, 0) == 0) return v;
     return std::nan("");
   };
+  auto get = [&](const std::string& prefix) { return find(reporter.ms, prefix); };
+  // CPU time of the calling thread: the whole work for the 1-thread runs (and OpenCV's merge,
+  // which runs on the calling thread), a figure that does not depend on what else the machine runs.
+  auto cpu = [&](const std::string& prefix) { return find(reporter.cpu_ms, prefix); };
   const double cv_ms = get("BM_OpenCvMergeRobertson8BitRgb/");
+  const double cv_cpu = cpu("BM_OpenCvMergeRobertson8BitRgb/");
+  const double ours1_cpu = cpu("BM_OursMerge8BitRgb/1/");
   const double ours2 = get("BM_OursMerge8BitRgb/2/");
   const double rgb_bytes = static_cast<double>(rgb_stack().input_bytes);
   const double mono_bytes = static_cast<double>(mono_stack().input_bytes);
-  std::printf("\nsummary (real time per 16-exposure stack)\n");
-  std::printf("  8-bit RGB: OpenCV MergeRobertson %.1f ms (%.3f GB/s), ours 2 threads %.1f ms (%.2f GB/s): %.1fx faster\n",
-              cv_ms, rgb_bytes / cv_ms * 1e-6, ours2, rgb_bytes / ours2 * 1e-6, cv_ms / ours2);
-  for (const char* kind : {"Response", "ResponseDarkFlat"})
-    for (int th : {1, 2}) {
-      const double ms = get(std::string("BM_OursMerge16BitMono") + kind + "/" + std::to_string(th) + "/");
-      std::printf("  16-bit mono (%s), %d thread(s): %.1f ms, %.2f GB/s of input\n", kind, th, ms, mono_bytes / ms * 1e-6);
-    }
+  std::printf("\nsummary (per 16-exposure stack; real time, and CPU time of one thread where it is the whole work)\n");
+  std::printf("  8-bit RGB: OpenCV MergeRobertson %.1f ms real, %.1f ms CPU; ours 2 threads %.1f ms real (%.1fx), "
+              "1 thread %.1f ms CPU (%.1fx OpenCV's CPU time, %.2f GB/s of input per core)\n",
+              cv_ms, cv_cpu, ours2, cv_ms / ours2, ours1_cpu, cv_cpu / ours1_cpu, rgb_bytes / ours1_cpu * 1e-6);
+  for (const char* kind : {"Response", "ResponseDarkFlat"}) {
+    const std::string base = std::string("BM_OursMerge16BitMono") + kind + "/";
+    const double c1 = cpu(base + "1/");
+    std::printf("  16-bit mono (%s): 1 thread %.1f ms CPU = %.2f GB/s of input per core; real time 1 thread %.1f ms, "
+                "2 threads %.1f ms (%.2f GB/s)\n",
+                kind, c1, mono_bytes / c1 * 1e-6, get(base + "1/"), get(base + "2/"), mono_bytes / get(base + "2/") * 1e-6);
+  }
   const double mc = get("BM_MemcpyStack16BitMono/");
   std::printf("  memcpy of the 16-bit stack: %.1f ms, %.2f GB/s read (%.2f GB/s read+write)\n", mc, mono_bytes / mc * 1e-6,
               2 * mono_bytes / mc * 1e-6);
