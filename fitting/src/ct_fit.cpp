@@ -184,7 +184,7 @@ Solved solve(const FitData& data, const std::vector<const FitBin*>& bins, CtPara
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.max_num_iterations = max_iterations;
   so.num_threads = thread_count(o.threads);
-  so.function_tolerance = 1e-8;
+  so.function_tolerance = o.function_tolerance;
   so.parameter_tolerance = 1e-9;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
@@ -380,6 +380,8 @@ void CtFitOptions::check() const {
   if (!(m_min > 0.0 && m_min < 0.1)) fail("m_min", fmt::format("{}", m_min), "in (0, 0.1)");
   if (threads < 0) fail("threads", std::to_string(threads), ">= 0");
   if (chunk_bins < 1) fail("chunk_bins", std::to_string(chunk_bins), ">= 1");
+  if (!(function_tolerance > 0.0 && function_tolerance < 1e-3))
+    fail("function_tolerance", fmt::format("{}", function_tolerance), "in (0, 1e-3)");
   if (warm_start) {
     if (warm_start->lobes.empty() || static_cast<int>(warm_start->lobes.size()) > lobes)
       fail("warm_start", fmt::format("a fit of {} lobes", warm_start->lobes.size()), "1..lobes lobes");

@@ -33,7 +33,7 @@ brdf::PaintSpec paint(const std::string& name) {
 
 // One binned sweep per paint and setting (each ctest case runs in its own process, so a
 // case renders what it needs). The accuracy cases use the 640x480 rig every 2 degrees
-// (about 1.1 M samples); the pearlescent report a 320x240 image every 3 degrees.
+// (about 1.1 M samples); the pearlescent report a 320x240 image every 6 degrees.
 struct Sweep {
   bool sparkle = false;
   bool small = false;
@@ -48,7 +48,7 @@ BinnedTable binned(const std::string& name, const Sweep& w) {
     o.width_px = 320;
     o.height_px = 240;
     o.focal_length_mm = 12.5;
-    o.step_deg = 3.0;
+    o.step_deg = 6.0;
   }
   auto session = test_support::make_sim_session(sim::sim_paint(paint(name)), o);
   const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());
@@ -87,9 +87,10 @@ void expect_within_targets(const brdf::CookTorranceParams& truth, const CookTorr
 }
 
 CookTorranceFit fit(const BinnedTable& t, int lobes, std::uint32_t min_samples = 1,
-                    const brdf::CookTorranceParams* warm = nullptr) {
+                    const brdf::CookTorranceParams* warm = nullptr, double function_tolerance = 1e-8) {
   CtFitOptions o;
   o.lobes = lobes;
+  o.function_tolerance = function_tolerance;
   o.data.min_samples = min_samples;
   if (warm) o.warm_start = *warm;
   return fit_cook_torrance(prepare_fit_data(t.table, o.data, &t.noise_variance), o);
@@ -109,16 +110,17 @@ TEST(SimPipeline, SolidBlueTwoLobes) {
   expect_within_targets(*spec.cook_torrance(), f);
 }
 
-// With flake sparkle single pixels vary by 100 % and more. Extraction estimates the
-// variance locally (pixel noise and sparkle) and the fit pools phi_d bins to 16 samples.
-// The measured state: kd, the broad flake lobe and the clear coat meet the targets; the
-// medium flake lobe (the one the glints of the narrow lifetime cone dominate) does not,
-// and the residual stays above the noise floor (docs/fitting.md "Sparkle").
+// With flake sparkle single pixels vary by 100 % and more, so the fit pools phi_d bins to
+// fit points of at least 16 samples (the log of a mean over many samples is not biased by
+// the glints). Measured state (docs/fitting.md "Sparkle"): kd, the broad flake lobe and the
+// clear coat meet the targets and the medium lobe's m is within 2 %, but its ks comes out
+// about 15 % low and its r a few % high, and the residual is far above the pixel-noise floor
+// (which does not know about sparkle). The local variance model (--variance local) and the
+// bins' own spread as noise did worse (m of the medium lobe 30 % and 10 % low).
 TEST(SimPipeline, SilverMetallicWithSparkle) {
   const brdf::CookTorranceParams truth = *paint("silver-metallic").cook_torrance();
   Sweep w;
   w.sparkle = true;
-  w.variance = VarianceModel::Local;
   const CookTorranceFit f = fit(binned("silver-metallic", w), 3, 16);
   report("silver-metallic, sparkle", f);
   EXPECT_TRUE(f.summary.converged) << f.summary.termination;
@@ -129,7 +131,8 @@ TEST(SimPipeline, SilverMetallicWithSparkle) {
       EXPECT_THAT(f.params.lobes[l].ks[c], NearRel(truth.lobes[l].ks[c], 0.03)) << "lobe " << l << " ks " << c;
     EXPECT_THAT(f.params.lobes[l].m, NearRel(truth.lobes[l].m, 0.02)) << "lobe " << l;
   }
-  EXPECT_THAT(f.params.lobes[1].m, NearRel(truth.lobes[1].m, 0.10));
+  EXPECT_THAT(f.params.lobes[1].m, NearRel(truth.lobes[1].m, 0.03));
+  EXPECT_THAT(f.params.lobes[1].ks[1], NearRel(truth.lobes[1].ks[1], 0.25));
 }
 
 // The layered pearlescent paint is no sum of Cook-Torrance lobes: the residual per region
@@ -142,7 +145,9 @@ TEST(SimPipeline, PearlescentResidualFallsFromOneToThreeLobes) {
   std::optional<brdf::CookTorranceParams> warm;
   std::vector<CookTorranceFit> fits;
   for (int lobes = 1; lobes <= 3; ++lobes) {
-    fits.push_back(fit(t, lobes, 1, warm ? &*warm : nullptr));
+    // The model cannot follow the data: stop when the cost changes by less than 1e-6 per
+    // iteration (at 1e-8 the 2-lobe fit creeps for 90 iterations without changing a figure below).
+    fits.push_back(fit(t, lobes, 1, warm ? &*warm : nullptr, 1e-6));
     warm = fits.back().params;
     report(("pearlescent, " + std::to_string(lobes) + " lobe(s)").c_str(), fits.back());
     EXPECT_TRUE(fits.back().summary.converged) << fits.back().summary.termination;

@@ -37,6 +37,10 @@ struct CtFitOptions {
   int threads = 0;                // 0 = all cores
   bool covariance = true;
   int chunk_bins = 256;           // bins per residual block
+  // Ceres' convergence test: relative change of the cost per iteration. A model that
+  // cannot follow the data (a pearlescent paint with Cook-Torrance lobes) creeps for many
+  // iterations at 1e-8; 1e-6 stops it where the parameters no longer matter.
+  double function_tolerance = 1e-8;
   // A fit with at most `lobes` lobes (usually one lobe fewer): extra starts keep its lobes
   // and add the missing ones (roughness from the grid, kd and ks re-solved by NNLS), so the
   // N-lobe fit ends at least as good as it on the start subsample.
