@@ -7,7 +7,9 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <set>
+#include <thread>
 
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
@@ -24,17 +26,28 @@ constexpr const char* kLockFile = ".lock";
 constexpr const char* kPaintSuffix = ".axf.h5";
 
 // An exclusive flock on DIR/.lock for the lifetime of the object. The kernel releases it
-// when the process dies, so a crashed writer never leaves the library locked.
+// when the process dies, so a crashed writer never leaves the library locked. A lock held
+// longer than `timeout_s` by another process (a hung command) is an IoError, never a hang.
 class DirLock {
  public:
-  explicit DirLock(const fs::path& dir) {
+  DirLock(const fs::path& dir, double timeout_s) {
     const fs::path p = dir / kLockFile;
     fd_ = ::open(p.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd_ < 0) throw IoError(p.string(), "cannot open the library lock", errno);
-    while (::flock(fd_, LOCK_EX) != 0) {
-      if (errno == EINTR) continue;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
       const int e = errno;
+      if (e == EINTR) continue;
+      if (e == EWOULDBLOCK && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        continue;
+      }
       ::close(fd_);
+      if (e == EWOULDBLOCK)
+        throw IoError(p.string(),
+                      fmt::format("another process has held the library lock for {:g} s (a paintlab library command "
+                                  "still running or hung); try again when it has finished",
+                                  timeout_s));
       throw IoError(p.string(), "cannot lock the library", e);
     }
   }
@@ -120,7 +133,7 @@ PaintLibrary PaintLibrary::open(const fs::path& dir, bool create) {
     fs::create_directories(lib.dir_, ec);
     if (ec) throw IoError(lib.dir_.string(), "cannot create the library folder: " + ec.message());
   }
-  DirLock lock(lib.dir_);
+  DirLock lock(lib.dir_, lib.lock_timeout_s_);
   if (!fs::exists(index, ec)) lib.write_index(Index{});
   return lib;
 }
@@ -192,7 +205,7 @@ AxfPaint PaintLibrary::load(const std::string& name) const {
 
 LibraryEntry PaintLibrary::add(const AxfPaint& paint, bool replace) {
   check_axf_paint(paint);  // before taking the lock or touching the folder
-  DirLock lock(dir_);
+  DirLock lock(dir_, lock_timeout_s_);
   step("locked");
   remove_stale_temps(dir_);
   Index idx = read_index();
@@ -251,7 +264,7 @@ LibraryEntry PaintLibrary::add(const AxfPaint& paint, bool replace) {
 }
 
 void PaintLibrary::remove(const std::string& name) {
-  DirLock lock(dir_);
+  DirLock lock(dir_, lock_timeout_s_);
   step("locked");
   Index idx = read_index();
   auto it = std::find_if(idx.paints.begin(), idx.paints.end(), [&](const LibraryEntry& e) { return e.name == name; });

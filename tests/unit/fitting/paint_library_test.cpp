@@ -4,8 +4,10 @@
 // `paintlab library` commands.
 #include "paintlab/fitting/paint_library.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -47,6 +49,27 @@ AxfPaint make_paint(const std::string& name, double m0 = 0.3, bool fitted = true
   return p;
 }
 
+// waitpid with a deadline: a child that hangs is killed and the test fails (never hangs).
+int wait_child(pid_t pid, double timeout_s = 60.0) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  int status = 0;
+  for (;;) {
+    const pid_t r = waitpid(pid, &status, WNOHANG);
+    if (r == pid) return status;
+    if (r < 0 && errno != EINTR) {
+      ADD_FAILURE() << "waitpid(" << pid << ") failed, errno " << errno;
+      return -1;
+    }
+    if (std::chrono::steady_clock::now() > deadline) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      ADD_FAILURE() << "child " << pid << " did not finish within " << timeout_s << " s";
+      return status;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
 // Runs `body` in a child process; returns the wait status.
 int run_child(const std::function<void()>& body) {
   const pid_t pid = fork();
@@ -58,9 +81,7 @@ int run_child(const std::function<void()>& body) {
     }
     _exit(0);
   }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return status;
+  return wait_child(pid);
 }
 
 // The library is consistent: the index parses, names are unique, every file it names
@@ -262,8 +283,7 @@ TEST(PaintLibrary, CrashAtRandomTimesDuringAdds) {
     }
     std::this_thread::sleep_for(std::chrono::microseconds(delay_us(rng)));
     kill(pid, SIGKILL);
-    int status = 0;
-    waitpid(pid, &status, 0);
+    const int status = wait_child(pid);
     if (WIFSIGNALED(status)) ++killed_mid_run;
     else
       ASSERT_EQ(WEXITSTATUS(status), 0);
@@ -295,13 +315,39 @@ TEST(PaintLibrary, ConcurrentWritersLoseNothing) {
     pids.push_back(pid);
   }
   for (pid_t pid : pids) {
-    int status = 0;
-    waitpid(pid, &status, 0);
+    const int status = wait_child(pid);
     ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
   }
   const PaintLibrary lib = PaintLibrary::open(tmp.path(), false);
   EXPECT_EQ(lib.list().size(), 16u);
   expect_consistent(lib);
+}
+
+TEST(PaintLibrary, ALockHeldTooLongIsAnErrorNotAHang) {
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp.path(), true);
+  // Another holder of the lock (flock locks belong to the open file description, so a
+  // second open() in this process conflicts like another process would).
+  const int fd = ::open((tmp / ".lock").c_str(), O_RDWR | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX), 0);
+  lib.set_lock_timeout(0.3);
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    lib.add(make_paint("silver"), false);
+    ADD_FAILURE() << "add went ahead while another process held the lock";
+  } catch (const IoError& e) {
+    EXPECT_THAT(e.what(), HasSubstr(".lock"));
+    EXPECT_THAT(e.what(), HasSubstr("held the library lock for 0.3 s"));
+  }
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_GE(waited, 0.3);
+  EXPECT_LT(waited, 5.0);
+  EXPECT_TRUE(lib.list().empty());
+  ::flock(fd, LOCK_UN);
+  ::close(fd);
+  EXPECT_NO_THROW(lib.add(make_paint("silver"), false));
+  EXPECT_EQ(lib.list().size(), 1u);
 }
 
 TEST(PaintLibraryCli, AddListShowRemoveExport) {

@@ -4,7 +4,8 @@
 // the index atomically (temp + fsync + rename) after the paint file is complete and
 // before an old file is deleted, so a crash at any point leaves the old or the new index,
 // and every file the index names is whole. Changes take an exclusive lock (flock on
-// DIR/.lock), so two technicians adding at once cannot lose an entry.
+// DIR/.lock), so two technicians adding at once cannot lose an entry; a lock held longer
+// than the lock timeout (a hung command) is an IoError, never a hang.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -71,6 +72,8 @@ class PaintLibrary {
   // Test hook: called with the name of each step of add/remove ("locked", "paint-written",
   // "index-written", "old-file-removed", "file-removed") so tests can crash between them.
   void set_step_hook(std::function<void(const std::string&)> hook) { hook_ = std::move(hook); }
+  // How long add/remove wait for another process's lock before an IoError (default 60 s).
+  void set_lock_timeout(double seconds) { lock_timeout_s_ = seconds; }
 
  private:
   explicit PaintLibrary(std::filesystem::path dir) : dir_(std::move(dir)) {}
@@ -84,6 +87,7 @@ class PaintLibrary {
 
   std::filesystem::path dir_;
   std::function<void(const std::string&)> hook_;
+  double lock_timeout_s_ = 60.0;
 };
 
 }  // namespace paintlab::fit
