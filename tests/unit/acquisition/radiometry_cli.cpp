@@ -214,6 +214,11 @@ TEST(RadiometryCli, BadInputExitsTwoNamesTheProblemAndWritesNothing) {
       {"hdr merge --images" + w.images() + " --exposures 1,2,3,4 --response '" + (dir / "none.json").string() + "'" +
            out,
        "none.json"},
+      {"hdr merge --images" + w.images() + " --exposures 1,2,3,4 --rig '" + (dir / "norig.toml").string() + "'" + out,
+       "norig.toml"},
+      {"calibrate flat --images" + w.images() + " --exposures 1,2,3,4 --dark '" + (dir / "nodark.json").string() + "'" +
+           rout,
+       "nodark.json"},
       {"calibrate response --capture" + rout, "--capture needs --rig"},
       {"calibrate response --images" + w.images() + " --exposures 1,2,3,4", "give --out"},
       {"calibrate response --images" + w.images() + " --exposures 1,2,3,4 --method magic" + rout, "magic"},
