@@ -33,6 +33,9 @@ struct Entry {
 struct CodeEntry {
   float a, w, wv;
 };
+// The same as four floats {a, w, wv, 0} for the batch merge, whose accumulators are
+// interleaved {s1, s2, s3, -} per value: one 16-byte multiply-add per value and frame.
+typedef float Float4 __attribute__((vector_size(16)));
 
 }  // namespace
 
@@ -49,6 +52,7 @@ struct HdrMerger::Impl {
   int u_lo = 0;                          // dark-map tables: entry i <-> u = u_lo + i
   std::vector<std::vector<Entry>> lut;   // [channel][i]
   std::vector<std::vector<CodeEntry>> code_lut;  // [channel][raw value]
+  std::vector<std::vector<Float4>> code_lut4;    // [channel][raw value]: {a, w, wv, 0}
   std::vector<float> y_sat;              // per channel: g(u at saturation)
   std::size_t tile_values = 16384;
 
@@ -93,6 +97,21 @@ struct HdrMerger::Impl {
     }
     if (C == 1) accumulate_dark<1>(z, t, v0, v1, s1, s2, s3);
     else accumulate_dark<3>(z, t, v0, v1, s1, s2, s3);
+  }
+
+  // Without a dark map, into interleaved accumulators {s1, s2, s3, -}.
+  void accumulate_codes(const std::uint16_t* z, double exposure_s, std::size_t v0, std::size_t v1,
+                        Float4* acc) const {
+    const float t = static_cast<float>(exposure_s);
+    const Float4 tv{t, t * t, t * t, 0.0f};
+    if (C == 1) {
+      const Float4* e = code_lut4[0].data();
+      for (std::size_t v = v0; v < v1; ++v) acc[v - v0] += tv * e[z[v]];
+    } else {
+      const Float4* e[3] = {code_lut4[0].data(), code_lut4[1].data(), code_lut4[2].data()};
+      for (std::size_t v = v0; v < v1; v += 3)
+        for (int c = 0; c < 3; ++c) acc[v + c - v0] += tv * e[c][z[v + c]];
+    }
   }
 
   // With a dark map: u = z - (bias + rate t) per value, linear value interpolated in the
@@ -342,6 +361,12 @@ HdrMerger::HdrMerger(const HdrCalibration& calibration, const HdrOptions& option
                             static_cast<float>(wn * wn * variance(c, u))};
       }
     }
+    m.code_lut4.assign(channels, std::vector<Float4>(65536));
+    for (int c = 0; c < channels; ++c)
+      for (std::size_t z = 0; z < 65536; ++z) {
+        const CodeEntry& e = m.code_lut[c][z];
+        m.code_lut4[c][z] = Float4{e.a, e.w, e.wv, 0.0f};
+      }
   } else {
     float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
     for (std::size_t s = 0; s < m.dark->bias_dn.size(); ++s) {
@@ -406,9 +431,11 @@ HdrResult HdrMerger::merge(std::span<const calib::StackFrame> frames) const {
   tbb::combinable<Impl::Counts> counts;
   struct Buffers {
     std::vector<float> s1, s2, s3;
+    std::vector<Float4> acc;
   };
   tbb::combinable<Buffers> buffers([&] {
-    return Buffers{std::vector<float>(tile), std::vector<float>(tile), std::vector<float>(tile)};
+    return Buffers{std::vector<float>(tile), std::vector<float>(tile), std::vector<float>(tile),
+                   std::vector<Float4>(m.dark ? 0 : tile)};
   });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tiles, 1), [&](const auto& r) {
     Buffers& b = buffers.local();
@@ -419,8 +446,18 @@ HdrResult HdrMerger::merge(std::span<const calib::StackFrame> frames) const {
       std::fill_n(b.s1.begin(), v1 - v0, 0.0f);
       std::fill_n(b.s2.begin(), v1 - v0, 0.0f);
       std::fill_n(b.s3.begin(), v1 - v0, 0.0f);
-      for (const auto& f : frames)
-        m.accumulate(f.pixels->data(), f.exposure_s, v0, v1, b.s1.data(), b.s2.data(), b.s3.data());
+      if (m.dark) {
+        for (const auto& f : frames)
+          m.accumulate(f.pixels->data(), f.exposure_s, v0, v1, b.s1.data(), b.s2.data(), b.s3.data());
+      } else {
+        std::fill_n(b.acc.begin(), v1 - v0, Float4{0.0f, 0.0f, 0.0f, 0.0f});
+        for (const auto& f : frames) m.accumulate_codes(f.pixels->data(), f.exposure_s, v0, v1, b.acc.data());
+        for (std::size_t i = 0; i < v1 - v0; ++i) {
+          b.s1[i] = b.acc[i][0];
+          b.s2[i] = b.acc[i][1];
+          b.s3[i] = b.acc[i][2];
+        }
+      }
       m.finalise(v0, v1, b.s1.data(), b.s2.data(), b.s3.data(), frames[j_short].pixels->data(),
                  frames[j_short].exposure_s, frames[j_long].pixels->data(), frames[j_long].exposure_s, &result.image,
                  &n);
