@@ -62,3 +62,23 @@ TEST(CalibrateCli, TooFewBoardsFailsWithTheDroppedViewsNamed) {
   EXPECT_THAT(r.err, ::testing::HasSubstr("only 2 usable chessboard views of 2 (at least 3 needed)"));
   EXPECT_FALSE(fs::exists(dir / "c.json"));
 }
+
+TEST(CheckCli, EmptyCalibrationFolderFailsWithTheCommandsToRunAndWritesCheckJson) {
+  // Offline (no --capture): the files alone decide. A rig whose calibration folder is empty.
+  test::TempDir dir;
+  fs::copy_file(test::source_dir() / "examples" / "rig-sim.toml", dir / "rig.toml");
+  auto r = test::run_paintlab("check --rig " + (dir / "rig.toml").string());
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("RIG NOT FIT TO MEASURE"));
+  EXPECT_THAT(r.out, ::testing::HasSubstr("run `paintlab calibrate intrinsics"));
+  EXPECT_THAT(r.out, ::testing::HasSubstr("run `paintlab calibrate light"));
+  Json j = read_json_file(dir / "calib-sim" / "check.json");
+  EXPECT_FALSE(j["passed"].get<bool>());
+  ASSERT_TRUE(j["checks"].is_array());
+  EXPECT_GE(j["checks"].size(), 7u);
+  // --json prints the same report as JSON.
+  r = test::run_paintlab("check --rig " + (dir / "rig.toml").string() + " --json");
+  EXPECT_EQ(r.exit_code, 1);
+  Json printed = Json::parse(r.out);
+  EXPECT_FALSE(printed["passed"].get<bool>());
+}
