@@ -31,11 +31,13 @@ struct RenderArgs {
   std::string compare;
   double angle_deg = 60;
   std::string calib;
+  int window_px = fit::CompareOptions{}.window_px;
 };
 
 int run_compare(const RenderArgs& a) {
   fit::CompareOptions o;
   o.tone.exposure = a.exposure;
+  o.window_px = a.window_px;
   const ComparisonResult r =
       render_comparison_png(a.paint, a.compare, a.angle_deg, a.out,
                             a.calib.empty() ? std::nullopt : std::optional<fs::path>(a.calib), o,
@@ -93,6 +95,9 @@ void register_render_commands(CLI::App& app) {
   r->add_option("--angle", args->angle_deg, "--compare: table angle, deg (the nearest finished position)")
       ->capture_default_str();
   r->add_option("--calib", args->calib, "--compare: calibration folder (default: the session's rig's)");
+  r->add_option("--window", args->window_px,
+                "--compare: half size of the window the difference is averaged over, px (0: pixel by pixel)")
+      ->capture_default_str();
   on_run(r, [args] { return run_render(*args); });
 }
 

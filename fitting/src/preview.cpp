@@ -310,6 +310,11 @@ Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& o, const En
     }
   out.exposure = o.tone.exposure > 0 ? o.tone.exposure : auto_exposure(out.linear, out.mask, o.tone.percentile);
   out.png = tone_map(out.linear, out.exposure);
+  // A grey background, so the silhouette shows where the sphere faces away from the light.
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x)
+      if (!out.mask[static_cast<std::size_t>(y) * S + x])
+        for (int c = 0; c < 3; ++c) out.png.at(x, y, c) = kPreviewBackground;
   return out;
 }
 

@@ -21,6 +21,7 @@ void CompareOptions::check() const {
   if (!(signal_floor_rel >= 0 && signal_floor_rel < 1))
     fail(fmt::format("signal_floor_rel = {}. Violated constraint: [0, 1)", signal_floor_rel));
   if (!(diff_range_log2 > 0)) fail(fmt::format("diff_range_log2 = {}. Violated constraint: > 0", diff_range_log2));
+  if (!(window_px >= 0 && window_px <= 50)) fail(fmt::format("window_px = {}. Violated constraint: [0, 50]", window_px));
 }
 
 Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration& cal, const ExrImage& hdr,
@@ -78,7 +79,40 @@ Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration
 
   out.exposure = o.tone.exposure > 0 ? o.tone.exposure : auto_exposure(out.measured, on_sphere, o.tone.percentile);
   const double floor = o.signal_floor_rel / out.exposure;
-  out.used.assign(static_cast<std::size_t>(W) * H, 0);
+
+  // Usable pixels and their channel means; window sums by summed-area tables (same pixel
+  // set for model and measurement, so their ratio compares like with like).
+  const std::size_t N = static_cast<std::size_t>(W) * H;
+  std::vector<std::uint8_t> usable(N, 0);
+  std::vector<double> meas_px(N, 0.0), model_px(N, 0.0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * W + x;
+      if (!on_sphere[i] || !geometry_ok[i]) continue;
+      double meas = 0, model = 0;
+      for (int c = 0; c < 3; ++c) {
+        meas += out.measured.at(x, y, c) / 3.0;
+        model += out.model.at(x, y, c) / 3.0;
+      }
+      if (!std::isfinite(meas) || !(model > 0) || !std::isfinite(model)) continue;
+      usable[i] = 1;
+      meas_px[i] = meas;
+      model_px[i] = model;
+    }
+  const std::size_t W1 = static_cast<std::size_t>(W) + 1;
+  std::vector<double> sat_meas(W1 * (H + 1), 0.0), sat_model = sat_meas, sat_n = sat_meas;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * W + x, k = (y + 1) * W1 + (x + 1);
+      sat_meas[k] = meas_px[i] + sat_meas[k - 1] + sat_meas[k - W1] - sat_meas[k - W1 - 1];
+      sat_model[k] = model_px[i] + sat_model[k - 1] + sat_model[k - W1] - sat_model[k - W1 - 1];
+      sat_n[k] = usable[i] + sat_n[k - 1] + sat_n[k - W1] - sat_n[k - W1 - 1];
+    }
+  auto box = [&](const std::vector<double>& t, int xa, int ya, int xb, int yb) {  // inclusive corners
+    return t[(yb + 1) * W1 + (xb + 1)] - t[ya * W1 + (xb + 1)] - t[(yb + 1) * W1 + xa] + t[ya * W1 + xa];
+  };
+
+  out.used.assign(N, 0);
   std::vector<double> log_ratio;
   ImageU8 diff(W, H, 3, 0);
   for (int y = 0; y < H; ++y)
@@ -86,11 +120,14 @@ Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration
       const std::size_t i = static_cast<std::size_t>(y) * W + x;
       if (!on_sphere[i]) continue;
       double meas = 0, model = 0;
-      for (int c = 0; c < 3; ++c) {
-        meas += out.measured.at(x, y, c) / 3.0;
-        model += out.model.at(x, y, c) / 3.0;
+      if (usable[i]) {
+        const int xa = std::max(0, x - o.window_px), xb = std::min(W - 1, x + o.window_px);
+        const int ya = std::max(0, y - o.window_px), yb = std::min(H - 1, y + o.window_px);
+        const double n = box(sat_n, xa, ya, xb, yb);
+        meas = box(sat_meas, xa, ya, xb, yb) / n;
+        model = box(sat_model, xa, ya, xb, yb) / n;
       }
-      if (!geometry_ok[i] || !(meas >= floor) || !(model > 0) || !std::isfinite(meas)) {
+      if (!usable[i] || !(meas >= floor) || !(model > 0)) {
         for (int c = 0; c < 3; ++c) diff.at(x, y, c) = 40;
         continue;
       }

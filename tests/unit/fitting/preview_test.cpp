@@ -98,7 +98,18 @@ TEST(Preview, HighlightHasThePredictedBrightnessAndPlace) {
   // The PNG is the stated tone mapping of the linear value.
   for (int c = 0; c < 3; ++c)
     EXPECT_EQ(p.png.at(p.peak_x, p.peak_y, c), srgb_encode(2.0 * p.linear.at(p.peak_x, p.peak_y, c)));
-  EXPECT_EQ(p.png.at(0, 0, 0), 0);  // background
+  EXPECT_EQ(p.png.at(0, 0, 0), kPreviewBackground);  // background: grey
+  // The side facing away from the light is black (n.wi < 0), distinct from the background.
+  int unlit = 0;
+  for (int y = 0; y < o.size_px; ++y)
+    for (int x = 0; x < o.size_px; ++x) {
+      Vec3 n, wi;
+      double dist = 0;
+      if (!preview_geometry(o, x, y, &n, &wi, &dist) || n.dot(wi) > -0.05) continue;
+      ++unlit;
+      for (int c = 0; c < 3; ++c) ASSERT_EQ(p.png.at(x, y, c), 0) << x << ", " << y;
+    }
+  EXPECT_GT(unlit, 20);
 }
 
 TEST(Preview, ToneMappingCurveAndAutoExposure) {
@@ -244,7 +255,7 @@ TEST(Preview, ComparisonWithTheTruthMatchesAndAWrongPaintDoesNot) {
   const Comparison good = render_comparison(*truth, cal, measured, 60.0);
   EXPECT_GT(good.pixels_used, 2000u);
   EXPECT_NEAR(good.median_ratio, 1.0, 0.02);
-  EXPECT_LT(good.log_rms, 0.03);  // 1 % noise: measured 0.012
+  EXPECT_LT(good.log_rms, 0.01);  // 1 % noise over the 9 x 9 window: measured 0.0020
   EXPECT_EQ(good.png.width(), 3 * good.measured.width() + 8);
   EXPECT_EQ(good.png.height(), good.measured.height());
 
@@ -267,6 +278,36 @@ TEST(Preview, ComparisonWithTheTruthMatchesAndAWrongPaintDoesNot) {
   std::printf("comparison: truth median %.4f rms %.4f (%zu px); 1.5x paint median %.4f rms %.4f; wrong angle rms %.4f\n",
               good.median_ratio, good.log_rms, good.pixels_used, bad.median_ratio, bad.log_rms, wrong_angle.log_rms);
   EXPECT_GT(wrong_angle.log_rms, 2 * good.log_rms);
+}
+
+TEST(Preview, ComparisonWindowAveragesFlakeSparkle) {
+  // With sparkle the flake lobes' light lands in a few bright pixels; pixel by pixel the
+  // true paint looks wrong almost everywhere, over the comparison window it matches.
+  test_support::SimSessionOptions so;
+  so.start_deg = so.stop_deg = 60.0;
+  so.sparkle = true;
+  so.noise_rel = 0.01;
+  auto sim = test_support::make_sim_session(sim::sim_paint(silver()), so);
+  const calib::RigCalibration cal = calib::RigCalibration::load(sim->calibration_dir());
+  const ExrImage measured = read_exr(sim->frames[0].path);
+  const auto truth = brdf::make_brdf(silver());
+  CompareOptions pixelwise;
+  pixelwise.window_px = 0;
+  const Comparison raw = render_comparison(*truth, cal, measured, 60.0, pixelwise);
+  const Comparison windowed = render_comparison(*truth, cal, measured, 60.0);
+  const Comparison bright = render_comparison(*brdf::make_brdf(scaled(silver(), 1.5)), cal, measured, 60.0);
+  std::printf("sparkle: pixel by pixel median %.4f rms %.4f; 9x9 window median %.4f rms %.4f (%zu px); 1.5x paint "
+              "median %.4f rms %.4f\n",
+              raw.median_ratio, raw.log_rms, windowed.median_ratio, windowed.log_rms, windowed.pixels_used,
+              bright.median_ratio, bright.log_rms);
+  EXPECT_GT(windowed.pixels_used, 2000u);
+  EXPECT_LT(windowed.log_rms, raw.log_rms / 2);  // measured 0.077 and 0.35
+  EXPECT_LT(windowed.log_rms, 0.15);
+  EXPECT_NEAR(windowed.median_ratio, 1.0, 0.03);  // measured 1.0004
+  EXPECT_NEAR(bright.median_ratio, 1.5, 0.08);
+  CompareOptions bad;
+  bad.window_px = 51;
+  EXPECT_THROW(render_comparison(*truth, cal, measured, 60.0, bad), DataError);
 }
 
 TEST(PreviewCli, RenderWritesPngAndHdrAndUsesAnEnvironment) {
@@ -335,7 +376,7 @@ TEST(PreviewCli, ExportASessionAndCompareWithIt) {
   EXPECT_GT(t.count_in_state(brdf::BinState::Measured), 100000u);  // measured + filled bins
 
   r = test::run_paintlab("render " + axf.string() + " --out " + (tmp / "cmp.png").string() + " --compare " +
-                         session.string() + " --angle 60" + calib);
+                         session.string() + " --angle 60 --window 3" + calib);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("at table angle 55.0 deg"));
   EXPECT_THAT(r.out, HasSubstr("RMS log ratio"));

@@ -85,10 +85,13 @@ struct PreviewOptions {
   void check() const;               // DataError naming the first violated rule
 };
 
+// The PNG's background (8-bit sRGB grey): unlit parts of the sphere are black against it.
+inline constexpr std::uint8_t kPreviewBackground = 64;
+
 struct Preview {
   ImageF linear;                    // size x size x 3, linear radiance (background 0)
   std::vector<std::uint8_t> mask;   // 1 on the sphere
-  ImageU8 png;                      // tone-mapped
+  ImageU8 png;                      // tone-mapped; background kPreviewBackground
   double exposure = 0;              // the exposure used
   // The brightest sphere pixel (largest channel) and its linear value.
   int peak_x = 0, peak_y = 0;
@@ -114,15 +117,18 @@ brdf::Rgb eval_world(const brdf::Brdf& brdf, const brdf::Vec3& n, const brdf::Ve
 // extraction does, so model and measurement are in the same unit (linear DN/s).
 // The image is  [measured | model | difference]  cropped around the sphere; measured and
 // model share one exposure (auto from the measured image unless tone.exposure > 0). The
-// difference panel shows d = log2(model / measured) of the mean of the channels:
-// red = model brighter, blue = model darker, the brightness is |d| / diff_range_log2
-// (saturating), black = equal; pixels whose measurement is below the signal floor (or
-// invalid, or at grazing angles) are dark grey.
+// difference panel shows d = log2(model / measured) of the mean of the channels, each
+// summed over the usable pixels of a (2 window_px + 1)^2 window around the pixel (flake
+// sparkle puts a lobe's light into a few bright pixels that the model averages; the
+// window compares like with like): red = model brighter, blue = model darker, the
+// brightness is |d| / diff_range_log2 (saturating), black = equal; pixels whose
+// measurement is below the signal floor (or invalid, or at grazing angles) are dark grey.
 struct CompareOptions {
   double margin_px = 8;           // crop margin around the sphere silhouette
   double min_cos = 0.05;          // n.wi and n.wo at least this for the statistics
-  double signal_floor_rel = 0.01; // measured value >= this x the exposure's white level
+  double signal_floor_rel = 0.01; // measured value (window mean) >= this x the exposure's white level
   double diff_range_log2 = 1.0;   // |d| that saturates the difference colour
+  int window_px = 4;              // half size of the comparison window, 0..50 (0: pixel by pixel)
   ToneMapping tone;
   void check() const;
 };
@@ -135,8 +141,8 @@ struct Comparison {
   int crop_x = 0, crop_y = 0;     // top-left of the crop in the camera image
   double exposure = 0;
   std::size_t pixels_used = 0;
-  double log_rms = 0;             // RMS of ln(model / measured) over the pixels used (channel mean)
-  double median_ratio = 0;        // median of model / measured
+  double log_rms = 0;             // RMS of ln(model / measured) over the pixels used (channel mean, windowed)
+  double median_ratio = 0;        // median of model / measured (windowed)
 };
 
 // measured: an HDR image of the session (channels R, G, B or Y, optional "valid"); the
