@@ -483,6 +483,23 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
   EXPECT_THROW(app::export_axf({}, {}, tmp / "none.axf.h5"), UsageError);
   EXPECT_FALSE(fs::exists(tmp / "none.axf.h5"));
 
+  // From the fit.json: the provenance is the session's again, and --merl bins the session
+  // the fit names into the same table, byte for byte.
+  app::ExportRequest from_fit;
+  from_fit.inputs = {*r.fit_out};
+  from_fit.axf = tmp / "from-fit.axf.h5";
+  from_fit.merl = tmp / "from-fit.binary";
+  from_fit.calib_dir = sim->calibration_dir();
+  from_fit.threads = 2;
+  const app::ExportResult ef = app::export_paint(from_fit);
+  ASSERT_TRUE(ef.paint);
+  EXPECT_EQ(ef.paint->cook_torrance, e.paint->cook_torrance);
+  EXPECT_EQ(ef.paint->provenance.session_sha256, e.paint->provenance.session_sha256);
+  EXPECT_EQ(ef.paint->provenance.calibration_sha256, e.paint->provenance.calibration_sha256);
+  EXPECT_THAT(ef.paint->provenance.source, HasSubstr("(a fit of session "));
+  EXPECT_GT(ef.bin_s, 0.0);
+  EXPECT_TRUE(read_file(*from_fit.merl) == read_file(*r.merl));
+
   // A session with a position still to measure is refused before anything is binned.
   fs::create_directories(tmp / "partial");
   for (const char* f : {"session.json", "journal.jsonl"}) fs::copy_file(session / f, tmp / "partial" / f);
