@@ -240,6 +240,7 @@ TEST_F(SimCamera, CameraThatDisappearsIsAnErrorNotAHang) {
 }
 
 TEST(SimCameraOpen, NoCameraAtTheAddressIsRetryable) {
+  sim::GigePortLock port;  // no simulated camera of another test or process serves meanwhile
   AravisCameraConfig c;
   c.id = "127.0.0.1";
   double w0 = wall_s();
