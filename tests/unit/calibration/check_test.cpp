@@ -131,7 +131,8 @@ double CheckSim::exposure_ = 0.0;
 TEST_F(CheckSim, GoodRigPassesEveryCheckAndWritesCheckJson) {
   LiveEvidence live;
   live.sphere = fit_sphere_now(*world_, *cam_);
-  const SphereFit& cal_sphere = *calibration().sphere();
+  const RigCalibration cal = calibration();  // keeps the sphere below alive
+  const SphereFit& cal_sphere = *cal.sphere();
   for (double a : {-60.0, 0.0, 60.0}) {
     HighlightImage im{a, "glossy", expose_linear(*world_, world_->render_with(glossy_black(), a, true), 0.8, nullptr, nullptr, 1.0)};
     live.highlights.push_back(find_highlight(im, *cam_, cal_sphere, rig_->geometry));
@@ -140,7 +141,7 @@ TEST_F(CheckSim, GoodRigPassesEveryCheckAndWritesCheckJson) {
                                   rate_image(*world_, sim::reference_paint(0.99), 0.0, exposure_)};
   live.drift_rel = intensity_drift_rel(repeated, *cam_, cal_sphere);
   live.devices = kDevices;
-  CheckReport r = run_checks(*rig_, calibration(), live);
+  CheckReport r = run_checks(*rig_, cal, live);
   std::printf("%s\n", r.table().c_str());
   EXPECT_TRUE(r.passed());
   EXPECT_GE(r.items.size(), 30u);
