@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
+#include <random>
 
 #include "paintlab/core/error.h"
 
@@ -217,7 +218,45 @@ SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v
   return out;
 }
 
-// Coarse circle: the largest bright blob.
+// Circle through three points; false when they are (nearly) collinear.
+bool circle_through(const Vec2& a, const Vec2& b, const Vec2& c, Vec2* centre, double* radius) {
+  const Vec2 ab = b - a, ac = c - a;
+  const double d = 2.0 * (ab.x() * ac.y() - ab.y() * ac.x());
+  if (std::abs(d) < 1e-9 * ab.squaredNorm() * ac.squaredNorm() + 1e-12) return false;
+  const double b2 = ab.squaredNorm(), c2 = ac.squaredNorm();
+  const Vec2 o((ac.y() * b2 - ab.y() * c2) / d, (ab.x() * c2 - ac.x() * b2) / d);
+  *centre = a + o;
+  *radius = o.norm();
+  return true;
+}
+
+// Least-squares (algebraic) circle through points: x^2 + y^2 + D x + E y + F = 0.
+bool fit_circle(const std::vector<Vec2>& pts, Vec2* centre, double* radius) {
+  if (pts.size() < 3) return false;
+  Vec2 m = Vec2::Zero();
+  for (const Vec2& p : pts) m += p / static_cast<double>(pts.size());
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  for (const Vec2& p : pts) {
+    const Vec2 q = p - m;  // centred: a well-conditioned system
+    const Eigen::Vector3d row(q.x(), q.y(), 1.0);
+    A += row * row.transpose();
+    rhs -= row * q.squaredNorm();
+  }
+  const Eigen::Vector3d s = A.ldlt().solve(rhs);
+  const double r2 = 0.25 * (s(0) * s(0) + s(1) * s(1)) - s(2);
+  if (!s.allFinite() || !(r2 > 0.0)) return false;
+  *centre = m + Vec2(-0.5 * s(0), -0.5 * s(1));
+  *radius = std::sqrt(r2);
+  return true;
+}
+
+// Coarse circle: the outline of the largest bright blob. Lit from the side, the blob is only
+// the lit part of the disc, cut off by the terminator (where the shading drops below the
+// threshold): its enclosing circle is then centred on that cut, up to a fifth of the radius
+// off, and the edge search around it misses most of the lit limb. So the circle is fitted
+// to the part of the outline that is a circular arc (the limb), found by consensus over
+// circles through three outline points; the enclosing circle remains the fallback.
 bool coarse_circle(const ImageF& img, Vec2* centre, double* radius) {
   cv::Mat m(img.height(), img.width(), CV_32F, const_cast<float*>(img.data()));
   std::vector<float> sample;
@@ -252,6 +291,55 @@ bool coarse_circle(const ImageF& img, Vec2* centre, double* radius) {
   cv::minEnclosingCircle(contours[big], c, r);
   *centre = Vec2(c.x, c.y);
   *radius = r;
+
+  // The outline without the stretches along the image border (not the sphere's).
+  std::vector<Vec2> outline;
+  for (const cv::Point& p : contours[big])
+    if (p.x > 0 && p.y > 0 && p.x < img.width() - 1 && p.y < img.height() - 1) outline.emplace_back(p.x, p.y);
+  if (outline.size() < 20) return true;
+  const double tol = 1.5;  // px: the threshold crossing follows the blurred limb within a pixel
+  auto inliers_of = [&](const Vec2& cc, double rr, std::vector<Vec2>* keep) {
+    int count = 0;
+    for (const Vec2& p : outline)
+      if (std::abs((p - cc).norm() - rr) <= tol) {
+        ++count;
+        if (keep) keep->push_back(p);
+      }
+    return count;
+  };
+  std::mt19937 rng(12345);  // fixed: the same image always gives the same circle
+  std::uniform_int_distribution<std::size_t> pick(0, outline.size() - 1);
+  Vec2 best_c = Vec2::Zero();
+  double best_r = 0.0;
+  int best_count = 0;
+  for (int it = 0; it < 400; ++it) {
+    const Vec2 &a = outline[pick(rng)], &b = outline[pick(rng)], &d = outline[pick(rng)];
+    // Points close together give an ill-defined circle.
+    const double spread = 0.25 * r;
+    if ((a - b).norm() < spread || (a - d).norm() < spread || (b - d).norm() < spread) continue;
+    Vec2 cc;
+    double rr = 0.0;
+    if (!circle_through(a, b, d, &cc, &rr) || rr < 0.5 * r || rr > 3.0 * r) continue;
+    const int count = inliers_of(cc, rr, nullptr);
+    if (count > best_count) {
+      best_count = count;
+      best_c = cc;
+      best_r = rr;
+    }
+  }
+  // The limb must make up a good part of the outline (a lit half disc: about 60 %).
+  if (best_count < std::max(20, static_cast<int>(outline.size() / 4))) return true;
+  for (int round = 0; round < 2; ++round) {
+    std::vector<Vec2> arc;
+    inliers_of(best_c, best_r, &arc);
+    Vec2 cc;
+    double rr = 0.0;
+    if (!fit_circle(arc, &cc, &rr) || !(rr > 0.5 * r && rr < 3.0 * r)) break;
+    best_c = cc;
+    best_r = rr;
+  }
+  *centre = best_c;
+  *radius = best_r;
   return true;
 }
 

@@ -76,6 +76,42 @@ TEST(SphereSim, SideLitWhiteSphereCentreWithinATenthOfAMillimetre) {
   EXPECT_EQ(back.provenance.kind, "sphere");
 }
 
+TEST(SphereSim, EachSideLitImageAloneFindsTheWholeLitLimbAtHalfResolution) {
+  // The quick demo's camera (half resolution, same field of view). Lit from one side, the
+  // bright blob is the lit part of the disc only, cut off by the terminator: the coarse
+  // circle must come from the limb, not from the blob's enclosing circle (centred on the
+  // cut, ~27 px off here), or the edge search around it finds only a handful of the lit
+  // limb's edge points (4 to 10 of ~90 per image: too few to fit).
+  sim::SimConfig cfg = sim_rig_config();
+  const Mat3 K = cfg.camera.K();
+  cfg.camera.width_px /= 2;
+  cfg.camera.height_px /= 2;
+  cfg.camera.fx_px = 0.5 * K(0, 0);
+  cfg.camera.fy_px = 0.5 * K(1, 1);
+  cfg.camera.cx_px = 0.5 * (K(0, 2) + 0.5) - 0.5;
+  cfg.camera.cy_px = 0.5 * (K(1, 2) + 0.5) - 0.5;
+  cfg.camera.pixel_size_m *= 2.0;
+  cfg.camera.psf_sigma_px *= 0.5;
+  sim::SimWorld world(cfg);
+  SphereOptions o;
+  o.radius_m = world.sphere_radius_m();
+  for (double angle : {90.0, 270.0}) {
+    const std::string name = "white-" + std::to_string(static_cast<int>(angle));
+    SphereFit fit;
+    ASSERT_NO_THROW(fit = fit_sphere({{name, expose_linear(world, world.render_with(sim::reference_paint(0.99), angle, true))}},
+                                     truth_camera(world), o))
+        << name;
+    const Vec3 err = fit.centre_cam_m - world.sphere_centre_cam();
+    std::printf("%s alone: %d edge points, coverage %.2f, rms %.3f px, centre error (%.3f, %.3f, %.3f) mm\n",
+                name.c_str(), fit.edges_used, fit.coverage, fit.rms_px, err.x() * 1e3, err.y() * 1e3, err.z() * 1e3);
+    // One side's limb: about 40 % of the outline.
+    EXPECT_GT(fit.edges_used, 60) << name;
+    EXPECT_GT(fit.coverage, 0.35) << name;
+    EXPECT_LT(fit.rms_px, 0.05) << name;
+    EXPECT_LT(err.norm(), 0.5e-3) << name;
+  }
+}
+
 TEST(SphereSim, FrontalLightLeavesTheLimbDarkAndTheUncertaintyShowsIt) {
   // Lit from the camera side, a Lambertian limb rises like sqrt(t) from black: those edges
   // are left out, few remain, and the reported depth uncertainty is large.
