@@ -1,0 +1,101 @@
+// `paintlab demo --quick` as a technician runs it first: the simulated rig end to end. The
+// run must succeed, write DIR/summary.json in the shape of DESIGN.md's contract, leave a
+// valid AxF-like file, a MERL table, a library with the paint and the previews, and the
+// fit must be close to the paint the simulator measured.
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "paintlab/brdf/merl.h"
+#include "paintlab/core/json.h"
+#include "paintlab/fitting/axf_file.h"
+#include "test_util.h"
+
+using namespace paintlab;
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+namespace {
+
+double rel(double fit, double truth) { return std::abs(fit - truth) / std::abs(truth); }
+
+}  // namespace
+
+TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
+  test::TempDir dir;
+  const fs::path out = dir / "demo";
+  auto r = test::run_paintlab("demo --quick --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  std::cout << r.out.substr(r.out.find("== paintlab demo")) << "\n";
+  EXPECT_THAT(r.out, HasSubstr("$ paintlab calibrate all"));
+  EXPECT_THAT(r.out, HasSubstr("demo finished in"));
+
+  const Json s = read_json_file(out / "summary.json");
+  // The contract's keys.
+  EXPECT_EQ(s.at("paint"), "silver-metallic");
+  for (const char* k : {"truth", "fit", "calibration", "timings_s", "files"}) ASSERT_TRUE(s.contains(k)) << k;
+  EXPECT_EQ(s["fit"].at("model"), "cook-torrance");
+  for (const char* k : {"kd", "lobes", "residual"}) ASSERT_TRUE(s["fit"].contains(k)) << k;
+  EXPECT_TRUE(s["fit"]["residual"].contains("log_rms"));
+  EXPECT_GT(s["fit"]["residual"].value("bins_used", 0), 100);
+  for (const char* k : {"reprojection_rms_px", "focal_error_rel", "sphere_centre_error_mm", "light_angle_error_deg",
+                        "response_error_rel"})
+    ASSERT_TRUE(s["calibration"].contains(k)) << k;
+  for (const char* k : {"calibrate", "measure", "fit", "export", "total"})
+    ASSERT_TRUE(s["timings_s"].contains(k) && s["timings_s"][k].get<double>() > 0) << k;
+  for (const char* k : {"axf", "merl", "fit", "preview"}) {
+    ASSERT_TRUE(s["files"].contains(k)) << k;
+    EXPECT_TRUE(fs::exists(s["files"][k].get<std::string>())) << k;
+  }
+
+  // The calibration on the simulated rig (half resolution) against its truth.
+  const Json& c = s["calibration"];
+  EXPECT_LT(c["reprojection_rms_px"].get<double>(), 0.25);
+  EXPECT_LT(std::abs(c["focal_error_rel"].get<double>()), 0.002);
+  // A 50 mm lens leaves the principal point loose (the calibration says how loose); the
+  // sphere centre then moves sideways with it. Its distance follows the focal length
+  // (1.2 m x the focal error) plus the silhouette's own error.
+  EXPECT_LT(c["principal_point_error_px"].get<double>(), 3.0 * c["principal_point_std_px"].get<double>());
+  EXPECT_LT(std::abs(c["sphere_distance_error_mm"].get<double>()),
+            1200.0 * std::abs(c["focal_error_rel"].get<double>()) + 0.3);
+  EXPECT_LT(c["light_angle_error_deg"].get<double>(), 0.2);
+  EXPECT_LT(c["response_error_rel"].get<double>(), 0.02);
+
+  // The fit against the paint: the diffuse term, the broad metallic lobe and the clear
+  // coat. (The medium lobe trades ks against F0 on the 19 light positions of --quick; the
+  // full demo reports it.)
+  // The camera is monochrome: the truth it can measure is the paint's kd and ks weighted
+  // by its channel weights.
+  ASSERT_TRUE(s.contains("truth_seen_by_camera"));
+  const Json& truth = s["truth_seen_by_camera"];
+  const Json& fit = s["fit"];
+  ASSERT_EQ(fit["lobes"].size(), truth["lobes"].size());
+  for (int ch = 0; ch < 3; ++ch) EXPECT_LT(rel(fit["kd"][ch], truth["kd"][ch]), 0.10) << "kd " << ch;
+  for (int l : {0, 2}) {
+    EXPECT_LT(rel(fit["lobes"][l]["m"], truth["lobes"][l]["m"]), 0.10) << "lobe " << l;
+    for (int ch = 0; ch < 3; ++ch)
+      EXPECT_LT(rel(fit["lobes"][l]["ks"][ch], truth["lobes"][l]["ks"][ch]), 0.15) << "lobe " << l << " ks " << ch;
+  }
+
+  // The files: the AxF-like file validates, the MERL table reads, the library lists the paint.
+  EXPECT_EQ(test::run_paintlab("axf validate " + s["files"]["axf"].get<std::string>()).exit_code, 0);
+  brdf::MerlTable table = brdf::read_merl(s["files"]["merl"].get<std::string>());
+  EXPECT_LT(table.count_in_state(brdf::BinState::Empty), brdf::kMerlBins / 2);
+  auto lib = test::run_paintlab("library list --dir " + (out / "library").string());
+  EXPECT_EQ(lib.exit_code, 0) << lib.err;
+  EXPECT_THAT(lib.out, HasSubstr("silver-metallic"));
+}
+
+TEST(DemoCli, RefusesAFolderThatIsNotADemosAndBadPaints) {
+  test::TempDir dir;
+  test::write_text(dir / "notes.txt", "mine");
+  auto r = test::run_paintlab("demo --quick --out " + dir.path().string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("not empty"));
+  EXPECT_TRUE(fs::exists(dir / "notes.txt"));
+  auto p = test::run_paintlab("demo --quick --out " + (dir / "x").string() + " --paint " + (dir / "missing.toml").string());
+  EXPECT_EQ(p.exit_code, 2) << p.err;
+  EXPECT_THAT(p.err, HasSubstr("missing.toml"));
+}
