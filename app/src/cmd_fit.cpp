@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "cli.h"
+#include "export_support.h"
 #include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/merl.h"
 #include "paintlab/calibration/rig_calibration.h"
@@ -57,57 +58,6 @@ fit::VarianceModel variance_model_from(const std::string& s) {
   throw UsageError(fmt::format("--variance: unknown variance model '{}' (expected hdr or local)", s));
 }
 
-// An opened session, complete: every planned position finished with a valid file.
-acq::SessionDir open_complete_session(const fs::path& dir) {
-  acq::SessionDir session = acq::SessionDir::open(dir);
-  const acq::SessionState state = session.inspect();
-  if (!state.todo.empty()) {
-    std::string which;
-    for (std::size_t k = 0; k < state.todo.size() && k < 8; ++k)
-      which += fmt::format("{}{}", k ? ", " : "", state.todo[k]);
-    if (state.todo.size() > 8) which += ", ...";
-    std::string why;
-    for (const std::string& p : state.problems) why += "; " + p;
-    throw DataError(fmt::format("{}: {} of {} light positions are missing (index {}){}; finish the session with "
-                                "`paintlab measure --resume {}`",
-                                dir.string(), state.todo.size(), session.position_count(), which, why, dir.string()));
-  }
-  return session;
-}
-
-std::vector<fit::HdrFrame> frames_of(const acq::SessionDir& session) {
-  std::vector<fit::HdrFrame> frames;
-  for (const acq::JournalEntry& e : session.finished_entries()) frames.push_back({session.dir() / e.file, e.angle_deg});
-  if (frames.empty()) throw DataError(session.dir().string() + ": the session has no measured light position");
-  return frames;
-}
-
-// The calibration: --calib, else the calibration folder of the session's rig file. Warns
-// about every calibration file that changed since the session recorded its checksum.
-calib::RigCalibration calibration_of(const acq::SessionDir& session, const std::string& calib_dir) {
-  fs::path dir;
-  if (!calib_dir.empty()) {
-    dir = calib_dir;
-  } else {
-    const std::string& rig_file = session.manifest().rig_file;
-    if (rig_file.empty() || !fs::exists(rig_file))
-      throw IoError(rig_file.empty() ? (session.dir() / "session.json").string() : rig_file,
-                    "the session's rig file cannot be found; give the calibration folder with --calib DIR");
-    dir = RigConfig::load(rig_file).calibration_dir;
-  }
-  if (!fs::is_directory(dir)) throw IoError(dir.string(), "no such calibration folder");
-  const Json& recorded = session.manifest().calibration;
-  for (auto it = recorded.begin(); it != recorded.end(); ++it) {
-    const fs::path p = dir / it.key();
-    if (!it.value().is_string() || !fs::exists(p)) continue;
-    const std::string now = sha256_file(p);
-    if (now != it.value().get<std::string>())
-      spdlog::warn("{}: changed since the session was measured (sha256 {} then, {} now)", p.string(),
-                   it.value().get<std::string>().substr(0, 12), now.substr(0, 12));
-  }
-  return calib::RigCalibration::load(dir);
-}
-
 struct BinnedSession {
   fit::BinnedTable binned;
   fit::ExtractionStats stats;
@@ -124,9 +74,11 @@ BinnedSession bin_session(const fs::path& dir, const ExtractArgs& a) {
   bo.estimator = fit::bin_estimator_from_string(a.estimator, "--estimator");
   bo.threads = a.threads;
   bo.check();
-  const acq::SessionDir session = open_complete_session(dir);
-  const std::vector<fit::HdrFrame> frames = frames_of(session);
-  const calib::RigCalibration cal = calibration_of(session, a.calib);
+  const acq::SessionDir session = acq::SessionDir::open(dir);
+  require_complete_session(session);
+  const std::vector<fit::HdrFrame> frames = session_frames(session);
+  const calib::RigCalibration cal =
+      session_calibration(session, a.calib.empty() ? std::nullopt : std::optional<fs::path>(a.calib));
   spdlog::info("extracting and binning {} HDR images of {}", frames.size(), dir.string());
   BinnedSession out;
   out.binned = fit::bin_frames(frames, cal, eo, bo, &out.stats);

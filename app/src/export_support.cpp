@@ -284,6 +284,7 @@ calib::RigCalibration session_calibration(const acq::SessionDir& session, const 
                     "the session's rig file cannot be found; give the calibration folder with --calib DIR");
     dir = RigConfig::load(rig_file).calibration_dir;
   }
+  if (!fs::is_directory(dir)) throw IoError(dir.string(), "no such calibration folder");
   calib::RigCalibration cal = calib::RigCalibration::load(dir);
   const Json& recorded = session.manifest().calibration;
   for (auto it = recorded.begin(); it != recorded.end(); ++it) {
@@ -297,7 +298,6 @@ calib::RigCalibration session_calibration(const acq::SessionDir& session, const 
   return cal;
 }
 
-namespace {
 void require_complete_session(const acq::SessionDir& session) {
   const acq::SessionState state = session.inspect();
   if (state.todo.empty()) return;
@@ -311,7 +311,6 @@ void require_complete_session(const acq::SessionDir& session) {
                               session.dir().string(), state.todo.size(), session.position_count(), which, why,
                               session.dir().string()));
 }
-}  // namespace
 
 fit::BinnedTable bin_session(const acq::SessionDir& session, const std::optional<fs::path>& calib_dir, int threads,
                              fit::BinEstimator estimator) {

@@ -101,6 +101,10 @@ bool is_session_dir(const std::filesystem::path& path);
 // DataError when none is finished.
 std::vector<fit::HdrFrame> session_frames(const acq::SessionDir& session);
 
+// Throws DataError naming the missing light positions (and what resume found) and the
+// `paintlab measure --resume` command when the session is not complete.
+void require_complete_session(const acq::SessionDir& session);
+
 // The calibration of a session: `calib_dir` when given, else the calibration folder of the
 // rig file the session names. Logs a warning for every calibration file whose checksum
 // differs from the one the session recorded. IoError/DataError when it cannot be found.
