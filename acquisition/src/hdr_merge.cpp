@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 
+#include "hdr_merge_kernels.h"
 #include "paintlab/core/error.h"
 
 namespace paintlab::acq {
@@ -21,21 +22,42 @@ void HdrOptions::check() const {
     throw UsageError("hdr: the noise model's read_noise_dn and gain_dn_per_e must be >= 0");
 }
 
+namespace detail {
+struct HdrCounts {
+  long long valid = 0, saturated = 0, dark = 0, hot = 0;
+};
+}  // namespace detail
+using detail::Float4;
+using detail::HdrCounts;
+using detail::kBlockValues;
+
 namespace {
 
-// Per dark-subtracted integer value u (with a per-pixel dark map): the weighted linear value
-// a + frac * b, the weight w and w^2 x variance.
-struct Entry {
-  float a, b, w, wv;
-};
-// Per raw value (without a dark map, saturation folded in): weighted linear value, weight,
-// w^2 x variance.
-struct CodeEntry {
-  float a, w, wv;
-};
-// The same as four floats {a, w, wv, 0} for the batch merge, whose accumulators are
-// interleaved {s1, s2, s3, -} per value: one 16-byte multiply-add per value and frame.
-typedef float Float4 __attribute__((vector_size(16)));
+// e = s1 / s2 and var = s3 / s2^2 (then / gain, / gain^2) of a block of values; ok where s2 > 0
+// (elsewhere e and var are placeholders the caller replaces). One loop the compiler vectorises.
+template <bool kDark, bool kFlat>
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("tree-vectorize", "vect-cost-model=dynamic")))
+#endif
+void sums_to_radiance(const Float4* acc, const float* gain, std::size_t m, float* e, float* var, int* ok) {
+  for (std::size_t k = 0; k < m; ++k) {
+    const float s1 = kDark ? acc[k][0] + acc[k][3] : acc[k][0];
+    const float s2 = acc[k][1];
+    const float s3 = acc[k][2];
+    const bool good = s2 > 0.0f;
+    const float den = good ? s2 : 1.0f;
+    float ek = s1 / den;
+    float vk = s3 / (den * den);
+    if (kFlat) {
+      const float g = gain[k];
+      ek /= g;
+      vk /= g * g;
+    }
+    e[k] = ek;
+    var[k] = vk;
+    ok[k] = good;
+  }
+}
 
 }  // namespace
 
@@ -50,9 +72,12 @@ struct HdrMerger::Impl {
   std::optional<calib::DarkFrame> dark;
   std::optional<calib::FlatField> flat;
   int u_lo = 0;                          // dark-map tables: entry i <-> u = u_lo + i
-  std::vector<std::vector<Entry>> lut;   // [channel][i]
-  std::vector<std::vector<CodeEntry>> code_lut;  // [channel][raw value]
-  std::vector<std::vector<Float4>> code_lut4;    // [channel][raw value]: {a, w, wv, 0}
+  // Without a dark map [channel][raw value] {w y, w, w^2 var, 0}; with one [channel][i]
+  // {w y, w, w^2 var, w (y(u + 1) - y(u))} for u = u_lo + i, then one all-zero entry.
+  std::vector<Float4> table;
+  std::vector<int> channel_offset;       // kBlockValues byte offsets of (k mod 3)'s table
+  detail::MergeTables tables;
+  const detail::Kernels* kernels = nullptr;
   std::vector<float> y_sat;              // per channel: g(u at saturation)
   std::size_t tile_values = 16384;
 
@@ -67,155 +92,85 @@ struct HdrMerger::Impl {
       throw DataError(fmt::format("hdr: frame {} has exposure {} s (must be finite and > 0)", index + 1, t));
   }
 
-  // Adds one frame's contribution to the accumulators of values [v0, v1) (whole pixels).
-  void accumulate(const std::uint16_t* z, double exposure_s, std::size_t v0, std::size_t v1, float* s1, float* s2,
-                  float* s3) const {
-    const float t = static_cast<float>(exposure_s);
-    const float t2 = t * t;
-    if (!dark) {
-      if (C == 1) {
-        const CodeEntry* e = code_lut[0].data();
-        for (std::size_t v = v0; v < v1; ++v) {
-          const CodeEntry& x = e[z[v]];
-          const std::size_t i = v - v0;
-          s1[i] += t * x.a;
-          s2[i] += t2 * x.w;
-          s3[i] += t2 * x.wv;
-        }
-      } else {
-        const CodeEntry* e[3] = {code_lut[0].data(), code_lut[1].data(), code_lut[2].data()};
-        for (std::size_t v = v0; v < v1; v += 3)
-          for (int c = 0; c < 3; ++c) {
-            const CodeEntry& x = e[c][z[v + c]];
-            const std::size_t i = v + c - v0;
-            s1[i] += t * x.a;
-            s2[i] += t2 * x.w;
-            s3[i] += t2 * x.wv;
-          }
-      }
-      return;
-    }
-    if (C == 1) accumulate_dark<1>(z, t, v0, v1, s1, s2, s3);
-    else accumulate_dark<3>(z, t, v0, v1, s1, s2, s3);
-  }
-
-  // Without a dark map, into interleaved accumulators {s1, s2, s3, -}.
-  void accumulate_codes(const std::uint16_t* z, double exposure_s, std::size_t v0, std::size_t v1,
-                        Float4* acc) const {
-    const float t = static_cast<float>(exposure_s);
-    const Float4 tv{t, t * t, t * t, 0.0f};
-    if (C == 1) {
-      const Float4* e = code_lut4[0].data();
-      for (std::size_t v = v0; v < v1; ++v) acc[v - v0] += tv * e[z[v]];
+  // Turns the sums of values [v0, v0 + m) (whole pixels, m <= kBlockValues) into radiance,
+  // variance and validity. `shortest`/`longest`: the frames with the shortest and longest
+  // exposure (bounds for values no exposure measured).
+  void finalise(std::size_t v0, std::size_t m, const Float4* acc, const std::uint16_t* shortest,
+                double t_short, const std::uint16_t* longest, double t_long, ExrImage* out, HdrCounts* counts) const {
+    alignas(64) float e[kBlockValues];
+    alignas(64) float var[kBlockValues];
+    alignas(64) int ok[kBlockValues];
+    const float* gain = flat ? flat->gain.data() + v0 : nullptr;
+    if (dark) {
+      if (flat) sums_to_radiance<true, true>(acc, gain, m, e, var, ok);
+      else sums_to_radiance<true, false>(acc, gain, m, e, var, ok);
     } else {
-      const Float4* e[3] = {code_lut4[0].data(), code_lut4[1].data(), code_lut4[2].data()};
-      for (std::size_t v = v0; v < v1; v += 3)
-        for (int c = 0; c < 3; ++c) acc[v + c - v0] += tv * e[c][z[v + c]];
+      if (flat) sums_to_radiance<false, true>(acc, gain, m, e, var, ok);
+      else sums_to_radiance<false, false>(acc, gain, m, e, var, ok);
     }
-  }
-
-  // With a dark map: u = z - (bias + rate t) per value, linear value interpolated in the
-  // table of integer u. In blocks: first the table index and fraction of every value (a loop
-  // the compiler vectorises; the index is computed in float from u - u_lo >= 0, where
-  // truncation is floor, and saturated raw values go to the table's all-zero last entry),
-  // then the table look-ups.
-  template <int kChannels>
-#if defined(__GNUC__) && !defined(__clang__)
-  __attribute__((optimize("tree-vectorize", "vect-cost-model=dynamic")))
-#endif
-  void accumulate_dark(const std::uint16_t* z, float t, std::size_t v0, std::size_t v1, float* s1, float* s2,
-                       float* s3) const {
-    constexpr std::size_t kBlock = 1020;  // a multiple of 3 (whole RGB pixels) and of 4
-    const float* bias = dark->bias_dn.data();
-    const float* rate = dark->rate_dn_per_s.data();
-    const std::size_t n = lut[0].size();
-    const float top = static_cast<float>(n - 3);  // the last entry with a real neighbour above
-    const int zero = static_cast<int>(n - 1);
-    const float offset = static_cast<float>(u_lo);
-    const float t2 = t * t;
-    const float saturation = sat;
-    const Entry* e[3] = {lut[0].data(), lut[kChannels == 3 ? 1 : 0].data(), lut[kChannels == 3 ? 2 : 0].data()};
-    alignas(64) int idx[kBlock];
-    alignas(64) float fr[kBlock];
-    for (std::size_t b0 = v0; b0 < v1; b0 += kBlock) {
-      const std::size_t m = std::min(kBlock, v1 - b0);
-      const std::uint16_t* zb = z + b0;
-      const float* bb = bias + b0;
-      const float* rb = rate + b0;
-      for (std::size_t k = 0; k < m; ++k) {
-        const float zz = static_cast<float>(zb[k]);
-        float x = zz - (bb[k] + rb[k] * t) - offset;
-        x = x > 0.0f ? x : 0.0f;
-        x = x < top ? x : top;
-        const int i = static_cast<int>(x);
-        fr[k] = x - static_cast<float>(i);
-        idx[k] = zero + (i - zero) * static_cast<int>(zz < saturation);
+    const std::size_t p0 = v0 / C;
+    const std::size_t np = m / C;
+    const std::uint8_t* hot = dark ? dark->hot.data() + p0 : nullptr;
+    float* valid_plane = out->planes[static_cast<std::size_t>(2 * C)].data() + p0;
+    std::size_t bad = 0;
+    if (C == 1) {
+      float* y = out->planes[0].data() + p0;
+      float* vy = out->planes[1].data() + p0;
+      for (std::size_t p = 0; p < np; ++p) {
+        const bool good = ok[p] && !(hot && hot[p]);
+        y[p] = e[p];
+        vy[p] = var[p];
+        valid_plane[p] = good ? 1.0f : 0.0f;
+        bad += !good;
       }
-      float* a1 = s1 + (b0 - v0);
-      float* a2 = s2 + (b0 - v0);
-      float* a3 = s3 + (b0 - v0);
-      for (std::size_t k = 0; k < m; k += kChannels)
-        for (int c = 0; c < kChannels; ++c) {
-          const std::size_t q = k + static_cast<std::size_t>(c);
-          const Entry& en = e[c][idx[q]];
-          a1[q] += t * (en.a + fr[q] * en.b);
-          a2[q] += t2 * en.w;
-          a3[q] += t2 * en.wv;
+    } else {
+      float* y[3];
+      float* vy[3];
+      for (int c = 0; c < 3; ++c) {
+        y[c] = out->planes[static_cast<std::size_t>(c)].data() + p0;
+        vy[c] = out->planes[static_cast<std::size_t>(3 + c)].data() + p0;
+      }
+      for (std::size_t p = 0; p < np; ++p) {
+        for (int c = 0; c < 3; ++c) {
+          y[c][p] = e[3 * p + c];
+          vy[c][p] = var[3 * p + c];
         }
+        const bool good = ok[3 * p] && ok[3 * p + 1] && ok[3 * p + 2] && !(hot && hot[p]);
+        valid_plane[p] = good ? 1.0f : 0.0f;
+        bad += !good;
+      }
     }
-  }
-
-  struct Counts {
-    long long valid = 0, saturated = 0, dark = 0, hot = 0;
-  };
-
-  // Turns the accumulators of values [v0, v1) into radiance, variance and validity.
-  // `shortest`/`longest`: the frames with the shortest and longest exposure (bounds for
-  // values no exposure measured).
-  void finalise(std::size_t v0, std::size_t v1, const float* s1, const float* s2, const float* s3,
-                const std::uint16_t* shortest, double t_short, const std::uint16_t* longest, double t_long,
-                ExrImage* out, Counts* counts) const {
+    counts->valid += static_cast<long long>(np - bad);
+    if (bad == 0) return;
+    // The invalid pixels: bounds where no exposure measured, var = inf.
     const float inf = std::numeric_limits<float>::infinity();
-    float* valid_plane = out->planes[static_cast<std::size_t>(2 * C)].data();
-    for (std::size_t v = v0; v < v1; v += C) {
-      const std::size_t p = v / C;
-      bool ok = true;
+    for (std::size_t p = 0; p < np; ++p) {
+      if (valid_plane[p] == 1.0f) continue;
       bool saturated = false;
       for (int c = 0; c < C; ++c) {
-        const std::size_t i = v + c - v0;
-        float e, var;
-        if (s2[i] > 0.0f) {
-          e = s1[i] / s2[i];
-          var = s3[i] / (s2[i] * s2[i]);
+        const std::size_t k = p * C + c;
+        if (ok[k]) continue;
+        const std::size_t v = v0 + k;
+        float ev;
+        if (static_cast<float>(shortest[v]) >= sat) {
+          saturated = true;
+          ev = static_cast<float>(y_sat[c] / t_short);
         } else {
-          ok = false;
-          var = inf;
-          if (static_cast<float>(shortest[v + c]) >= sat) {
-            saturated = true;
-            e = static_cast<float>(y_sat[c] / t_short);
-          } else {
-            const double d = dark ? dark->level(v + c, t_long) : black[c];
-            e = static_cast<float>(std::max(0.0, linear(c, longest[v + c] - d)) / t_long);
-          }
+          const double d = dark ? dark->level(v, t_long) : black[c];
+          ev = static_cast<float>(std::max(0.0, linear(c, longest[v] - d)) / t_long);
         }
-        if (flat) {
-          const float g = flat->gain.data()[v + c];
-          e /= g;
-          var /= g * g;
-        }
-        out->planes[static_cast<std::size_t>(c)].data()[p] = e;
-        out->planes[static_cast<std::size_t>(C + c)].data()[p] = var;
+        if (flat) ev /= gain[k];
+        out->planes[static_cast<std::size_t>(c)].data()[p0 + p] = ev;
+        out->planes[static_cast<std::size_t>(C + c)].data()[p0 + p] = inf;
       }
-      const bool hot = dark && dark->hot.data()[p];
-      if (hot) {
-        ok = false;
-        for (int c = 0; c < C; ++c) out->planes[static_cast<std::size_t>(C + c)].data()[p] = inf;
+      if (hot && hot[p]) {
+        for (int c = 0; c < C; ++c) out->planes[static_cast<std::size_t>(C + c)].data()[p0 + p] = inf;
+        ++counts->hot;
+      } else if (saturated) {
+        ++counts->saturated;
+      } else {
+        ++counts->dark;
       }
-      valid_plane[p] = ok ? 1.0f : 0.0f;
-      if (ok) ++counts->valid;
-      else if (hot) ++counts->hot;
-      else if (saturated) ++counts->saturated;
-      else ++counts->dark;
     }
   }
 
@@ -227,10 +182,10 @@ struct HdrMerger::Impl {
     if (C == 1) names = {"Y", "var.Y"};
     else names = {"R", "G", "B", "var.R", "var.G", "var.B"};
     names.push_back("valid");
-    for (const auto& n : names) {
-      img.names.push_back(n);
-      img.planes.emplace_back(W, H, 1);
-    }
+    img.names = names;
+    // Allocated (and zero-filled by the vector) on every worker at once.
+    img.planes.resize(names.size());
+    tbb::parallel_for(std::size_t{0}, names.size(), [&](std::size_t i) { img.planes[i] = ImageF(W, H, 1); });
     std::string times;
     for (double t : exposures) times += (times.empty() ? "" : ",") + fmt::format("{:.9g}", t);
     img.attributes["paintlab.units"] =
@@ -243,7 +198,7 @@ struct HdrMerger::Impl {
     return img;
   }
 
-  HdrStats stats_of(const Counts& n) const {
+  HdrStats stats_of(const HdrCounts& n) const {
     HdrStats s;
     s.pixels = static_cast<long long>(W) * H;
     s.valid = n.valid;
@@ -346,9 +301,9 @@ HdrMerger::HdrMerger(const HdrCalibration& calibration, const HdrOptions& option
   if (!m.dark) {
     // Every 16-bit value has an entry (values above 2^bits - 1 count as saturated), so a
     // frame with stray high values can never index outside the table.
-    m.code_lut.assign(channels, std::vector<CodeEntry>(65536));
+    m.table.assign(static_cast<std::size_t>(channels) * 65536, Float4{0.0f, 0.0f, 0.0f, 0.0f});
     for (int c = 0; c < channels; ++c) {
-      std::vector<double> w(m.code_lut[c].size());
+      std::vector<double> w(65536);
       double wmax = 0.0;
       for (std::size_t z = 0; z < w.size(); ++z) {
         w[z] = static_cast<double>(z) >= m.window.saturation_dn ? 0.0 : weight(c, z - m.window.black_dn);
@@ -357,16 +312,12 @@ HdrMerger::HdrMerger(const HdrCalibration& calibration, const HdrOptions& option
       for (std::size_t z = 0; z < w.size(); ++z) {
         const double u = static_cast<double>(z) - m.window.black_dn;
         const double wn = wmax > 0.0 ? w[z] / wmax : 0.0;
-        m.code_lut[c][z] = {static_cast<float>(wn * m.linear(c, u)), static_cast<float>(wn),
-                            static_cast<float>(wn * wn * variance(c, u))};
+        m.table[static_cast<std::size_t>(c) * 65536 + z] =
+            Float4{static_cast<float>(wn * m.linear(c, u)), static_cast<float>(wn),
+                   static_cast<float>(wn * wn * variance(c, u)), 0.0f};
       }
     }
-    m.code_lut4.assign(channels, std::vector<Float4>(65536));
-    for (int c = 0; c < channels; ++c)
-      for (std::size_t z = 0; z < 65536; ++z) {
-        const CodeEntry& e = m.code_lut[c][z];
-        m.code_lut4[c][z] = Float4{e.a, e.w, e.wv, 0.0f};
-      }
+    m.tables.codes = m.table.data();
   } else {
     float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
     for (std::size_t s = 0; s < m.dark->bias_dn.size(); ++s) {
@@ -379,8 +330,9 @@ HdrMerger::HdrMerger(const HdrCalibration& calibration, const HdrOptions& option
     m.u_lo = static_cast<int>(std::floor(-hi)) - 1;
     const int u_hi = static_cast<int>(std::ceil(full - lo)) + 1;
     const std::size_t n = static_cast<std::size_t>(u_hi - m.u_lo + 1);
-    // One more entry, all zero: where accumulate_dark() sends saturated raw values.
-    m.lut.assign(channels, std::vector<Entry>(n + 1, Entry{0.0f, 0.0f, 0.0f, 0.0f}));
+    // One more entry per channel, all zero: where the kernels send saturated raw values.
+    const std::size_t stride = n + 1;
+    m.table.assign(static_cast<std::size_t>(channels) * stride, Float4{0.0f, 0.0f, 0.0f, 0.0f});
     for (int c = 0; c < channels; ++c) {
       std::vector<double> w(n);
       double wmax = 0.0;
@@ -393,11 +345,30 @@ HdrMerger::HdrMerger(const HdrCalibration& calibration, const HdrOptions& option
         const double wn = wmax > 0.0 ? w[i] / wmax : 0.0;
         const double y0 = m.linear(c, u);
         const double y1 = m.linear(c, u + 1.0);
-        m.lut[c][i] = {static_cast<float>(wn * y0), static_cast<float>(wn * (y1 - y0)), static_cast<float>(wn),
-                       static_cast<float>(wn * wn * variance(c, u))};
+        m.table[static_cast<std::size_t>(c) * stride + i] =
+            Float4{static_cast<float>(wn * y0), static_cast<float>(wn), static_cast<float>(wn * wn * variance(c, u)),
+                   static_cast<float>(wn * (y1 - y0))};
       }
     }
+    detail::MergeTables& t = m.tables;
+    t.dark_lut = m.table.data();
+    t.dark_stride = stride;
+    t.bias = m.dark->bias_dn.data();
+    t.rate = m.dark->rate_dn_per_s.data();
+    t.u_lo = static_cast<float>(m.u_lo);
+    t.top = static_cast<float>(n - 2);  // the last entry with a real neighbour above
+    t.zero = static_cast<int>(n);
+    t.saturation = m.sat;
+    if (static_cast<std::size_t>(channels) * stride * sizeof(Float4) >
+        static_cast<std::size_t>(std::numeric_limits<int>::max()))
+      throw DataError(fmt::format("hdr: the dark frame spans {} DN; its table does not fit", n));
+    m.channel_offset.resize(kBlockValues);
+    for (std::size_t k = 0; k < kBlockValues; ++k)
+      m.channel_offset[k] = static_cast<int>((k % static_cast<std::size_t>(channels)) * stride * sizeof(Float4));
+    t.channel_offset = m.channel_offset.data();
   }
+  m.tables.channels = channels;
+  m.kernels = options.baseline_simd ? &detail::baseline_kernels() : &detail::kernels();
 }
 
 HdrMerger::~HdrMerger() = default;
@@ -409,6 +380,29 @@ int HdrMerger::bit_depth() const { return impl_->bits; }
 const calib::ValueWindow& HdrMerger::window() const { return impl_->window; }
 calib::Weighting HdrMerger::weighting() const { return impl_->weighting; }
 
+const char* HdrMerger::simd() const { return impl_->kernels->name; }
+
+namespace {
+
+// Per-thread buffers of a merge: the accumulators of one block and the kernels' scratch.
+struct BlockBuffers {
+  std::vector<Float4> acc;
+  std::vector<int> off;
+  std::vector<float> tf;
+  explicit BlockBuffers(std::size_t frames) : acc(kBlockValues), off(frames * kBlockValues), tf(frames * kBlockValues) {}
+};
+
+void add_counts(tbb::combinable<HdrCounts>& counts, HdrCounts* total) {
+  counts.combine_each([&](const HdrCounts& n) {
+    total->valid += n.valid;
+    total->saturated += n.saturated;
+    total->dark += n.dark;
+    total->hot += n.hot;
+  });
+}
+
+}  // namespace
+
 HdrResult HdrMerger::merge(std::span<const calib::StackFrame> frames) const {
   const Impl& m = *impl_;
   if (frames.empty()) throw DataError("hdr: no frames to merge");
@@ -418,8 +412,10 @@ HdrResult HdrMerger::merge(std::span<const calib::StackFrame> frames) const {
   }
   std::size_t j_short = 0, j_long = 0;
   std::vector<double> exposures;
+  std::vector<detail::Frame> kframes;
   for (std::size_t j = 0; j < frames.size(); ++j) {
     exposures.push_back(frames[j].exposure_s);
+    kframes.push_back(detail::make_frame(frames[j].pixels->data(), frames[j].exposure_s));
     if (frames[j].exposure_s < frames[j_short].exposure_s) j_short = j;
     if (frames[j].exposure_s > frames[j_long].exposure_s) j_long = j;
   }
@@ -428,48 +424,25 @@ HdrResult HdrMerger::merge(std::span<const calib::StackFrame> frames) const {
   const std::size_t V = m.values();
   const std::size_t tile = m.tile_values;
   const std::size_t tiles = (V + tile - 1) / tile;
-  tbb::combinable<Impl::Counts> counts;
-  struct Buffers {
-    std::vector<float> s1, s2, s3;
-    std::vector<Float4> acc;
-  };
-  tbb::combinable<Buffers> buffers([&] {
-    return Buffers{std::vector<float>(tile), std::vector<float>(tile), std::vector<float>(tile),
-                   std::vector<Float4>(m.dark ? 0 : tile)};
-  });
+  tbb::combinable<HdrCounts> counts;
+  tbb::combinable<BlockBuffers> buffers([&] { return BlockBuffers(frames.size()); });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tiles, 1), [&](const auto& r) {
-    Buffers& b = buffers.local();
-    Impl::Counts& n = counts.local();
+    BlockBuffers& b = buffers.local();
+    HdrCounts& n = counts.local();
     for (std::size_t ti = r.begin(); ti < r.end(); ++ti) {
-      const std::size_t v0 = ti * tile;
-      const std::size_t v1 = std::min(V, v0 + tile);
-      std::fill_n(b.s1.begin(), v1 - v0, 0.0f);
-      std::fill_n(b.s2.begin(), v1 - v0, 0.0f);
-      std::fill_n(b.s3.begin(), v1 - v0, 0.0f);
-      if (m.dark) {
-        for (const auto& f : frames)
-          m.accumulate(f.pixels->data(), f.exposure_s, v0, v1, b.s1.data(), b.s2.data(), b.s3.data());
-      } else {
-        std::fill_n(b.acc.begin(), v1 - v0, Float4{0.0f, 0.0f, 0.0f, 0.0f});
-        for (const auto& f : frames) m.accumulate_codes(f.pixels->data(), f.exposure_s, v0, v1, b.acc.data());
-        for (std::size_t i = 0; i < v1 - v0; ++i) {
-          b.s1[i] = b.acc[i][0];
-          b.s2[i] = b.acc[i][1];
-          b.s3[i] = b.acc[i][2];
-        }
+      const std::size_t t1 = std::min(V, (ti + 1) * tile);
+      for (std::size_t v0 = ti * tile; v0 < t1; v0 += kBlockValues) {
+        const std::size_t mv = std::min(kBlockValues, t1 - v0);
+        std::fill_n(b.acc.begin(), mv, Float4{0.0f, 0.0f, 0.0f, 0.0f});
+        m.kernels->accumulate(m.tables, kframes.data(), kframes.size(), v0, mv, b.acc.data(), b.off.data(),
+                              b.tf.data());
+        m.finalise(v0, mv, b.acc.data(), frames[j_short].pixels->data(), frames[j_short].exposure_s,
+                   frames[j_long].pixels->data(), frames[j_long].exposure_s, &result.image, &n);
       }
-      m.finalise(v0, v1, b.s1.data(), b.s2.data(), b.s3.data(), frames[j_short].pixels->data(),
-                 frames[j_short].exposure_s, frames[j_long].pixels->data(), frames[j_long].exposure_s, &result.image,
-                 &n);
     }
   });
-  Impl::Counts total;
-  counts.combine_each([&](const Impl::Counts& n) {
-    total.valid += n.valid;
-    total.saturated += n.saturated;
-    total.dark += n.dark;
-    total.hot += n.hot;
-  });
+  HdrCounts total;
+  add_counts(counts, &total);
   result.stats = m.stats_of(total);
   return result;
 }
@@ -479,7 +452,7 @@ HdrResult HdrMerger::merge(std::span<const calib::StackFrame> frames) const {
 
 struct HdrAccumulator::State {
   const HdrMerger::Impl* merger = nullptr;
-  std::vector<float> s1, s2, s3;
+  std::vector<Float4> acc;                 // per value: the kernels' accumulators
   Image<std::uint16_t> shortest, longest;  // copies: bounds for values no exposure measured
   double t_short = 0.0, t_long = 0.0;
   std::vector<double> exposures;
@@ -495,9 +468,7 @@ HdrAccumulator HdrMerger::accumulator() const {
   auto st = std::make_unique<HdrAccumulator::State>();
   st->merger = impl_.get();
   const std::size_t V = impl_->values();
-  st->s1.assign(V, 0.0f);
-  st->s2.assign(V, 0.0f);
-  st->s3.assign(V, 0.0f);
+  st->acc.assign(V, Float4{0.0f, 0.0f, 0.0f, 0.0f});
   return HdrAccumulator(std::move(st));
 }
 
@@ -510,11 +481,14 @@ void HdrAccumulator::add(const Image<std::uint16_t>& pixels, double exposure_s) 
   m.check_frame(pixels, exposure_s, st.exposures.size());
   const std::size_t V = m.values();
   const std::size_t tile = m.tile_values;
+  const detail::Frame frame = detail::make_frame(pixels.data(), exposure_s);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (V + tile - 1) / tile, 1), [&](const auto& r) {
+    alignas(64) int off[kBlockValues];
+    alignas(64) float tf[kBlockValues];
     for (std::size_t ti = r.begin(); ti < r.end(); ++ti) {
-      const std::size_t v0 = ti * tile;
-      const std::size_t v1 = std::min(V, v0 + tile);
-      m.accumulate(pixels.data(), exposure_s, v0, v1, st.s1.data() + v0, st.s2.data() + v0, st.s3.data() + v0);
+      const std::size_t t1 = std::min(V, (ti + 1) * tile);
+      for (std::size_t v0 = ti * tile; v0 < t1; v0 += kBlockValues)
+        m.kernels->accumulate(m.tables, &frame, 1, v0, std::min(kBlockValues, t1 - v0), st.acc.data() + v0, off, tf);
     }
   });
   if (st.exposures.empty() || exposure_s < st.t_short) {
@@ -538,27 +512,19 @@ HdrResult HdrAccumulator::finish() {
   result.image = m.make_image(st.exposures);
   const std::size_t V = m.values();
   const std::size_t tile = m.tile_values;
-  tbb::combinable<HdrMerger::Impl::Counts> counts;
+  tbb::combinable<HdrCounts> counts;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (V + tile - 1) / tile, 1), [&](const auto& r) {
     auto& n = counts.local();
     for (std::size_t ti = r.begin(); ti < r.end(); ++ti) {
-      const std::size_t v0 = ti * tile;
-      const std::size_t v1 = std::min(V, v0 + tile);
-      m.finalise(v0, v1, st.s1.data() + v0, st.s2.data() + v0, st.s3.data() + v0, st.shortest.data(), st.t_short,
-                 st.longest.data(), st.t_long, &result.image, &n);
+      const std::size_t t1 = std::min(V, (ti + 1) * tile);
+      for (std::size_t v0 = ti * tile; v0 < t1; v0 += kBlockValues)
+        m.finalise(v0, std::min(kBlockValues, t1 - v0), st.acc.data() + v0, st.shortest.data(), st.t_short, st.longest.data(), st.t_long, &result.image, &n);
     }
   });
-  HdrMerger::Impl::Counts total;
-  counts.combine_each([&](const HdrMerger::Impl::Counts& n) {
-    total.valid += n.valid;
-    total.saturated += n.saturated;
-    total.dark += n.dark;
-    total.hot += n.hot;
-  });
+  HdrCounts total;
+  add_counts(counts, &total);
   result.stats = m.stats_of(total);
-  std::vector<float>().swap(st.s1);
-  std::vector<float>().swap(st.s2);
-  std::vector<float>().swap(st.s3);
+  std::vector<Float4>().swap(st.acc);
   return result;
 }
 

@@ -48,7 +48,10 @@ struct HdrOptions {
   // Noise model used when the response has no residual spread (source empty: unknown; the
   // variance then holds quantisation only, a lower bound, and says so in the EXR header).
   calib::NoiseModel noise;
-  std::size_t tile_values = 16384;  // values per tile of the batch merge (accumulators stay in cache)
+  std::size_t tile_values = 16384;  // values per tile: the unit of parallel work
+  // The inner loops: false = the fastest this CPU runs (AVX2 + FMA where it has them), true =
+  // the x86-64 baseline ones (the same results within float rounding; for tests).
+  bool baseline_simd = false;
 
   void check() const;  // UsageError naming the first violated rule
 };
@@ -94,6 +97,8 @@ class HdrMerger {
   int bit_depth() const;
   const calib::ValueWindow& window() const;
   calib::Weighting weighting() const;
+  // The instruction set of the merge's inner loops on this CPU ("avx2+fma", "x86-64", ...).
+  const char* simd() const;
 
   struct Impl;
 
