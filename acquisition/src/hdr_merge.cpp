@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "hdr_merge_kernels.h"
@@ -33,14 +34,42 @@ using detail::kBlockValues;
 
 namespace {
 
+using detail::Int4;
+
 // e = s1 / s2 and var = s3 / s2^2 (then / gain, / gain^2) of a block of values; ok where s2 > 0
-// (elsewhere e and var are placeholders the caller replaces). One loop the compiler vectorises.
+// (elsewhere e and var are placeholders the caller replaces). Four values at a time: their
+// accumulators transposed into one vector per sum, then the same IEEE operations as one by one.
 template <bool kDark, bool kFlat>
-#if defined(__GNUC__) && !defined(__clang__)
-__attribute__((optimize("tree-vectorize", "vect-cost-model=dynamic")))
-#endif
 void sums_to_radiance(const Float4* acc, const float* gain, std::size_t m, float* e, float* var, int* ok) {
-  for (std::size_t k = 0; k < m; ++k) {
+  const Float4 one = {1.0f, 1.0f, 1.0f, 1.0f};
+  const Float4 zero = {0.0f, 0.0f, 0.0f, 0.0f};
+  std::size_t k = 0;
+  for (; k + 4 <= m; k += 4) {
+    const Float4 t0 = __builtin_shuffle(acc[k], acc[k + 1], Int4{0, 4, 1, 5});
+    const Float4 t1 = __builtin_shuffle(acc[k + 2], acc[k + 3], Int4{0, 4, 1, 5});
+    const Float4 t2 = __builtin_shuffle(acc[k], acc[k + 1], Int4{2, 6, 3, 7});
+    const Float4 t3 = __builtin_shuffle(acc[k + 2], acc[k + 3], Int4{2, 6, 3, 7});
+    const Float4 c0 = __builtin_shuffle(t0, t1, Int4{0, 1, 4, 5});
+    const Float4 s2 = __builtin_shuffle(t0, t1, Int4{2, 3, 6, 7});
+    const Float4 s3 = __builtin_shuffle(t2, t3, Int4{0, 1, 4, 5});
+    Float4 s1 = c0;
+    if (kDark) s1 = c0 + __builtin_shuffle(t2, t3, Int4{2, 3, 6, 7});
+    const Int4 good = s2 > zero;
+    const Float4 den = good ? s2 : one;
+    Float4 ek = s1 / den;
+    Float4 vk = s3 / (den * den);
+    if (kFlat) {
+      Float4 g;
+      std::memcpy(&g, gain + k, sizeof g);
+      ek /= g;
+      vk /= g * g;
+    }
+    std::memcpy(e + k, &ek, sizeof ek);
+    std::memcpy(var + k, &vk, sizeof vk);
+    const Int4 flag = good & Int4{1, 1, 1, 1};
+    std::memcpy(ok + k, &flag, sizeof flag);
+  }
+  for (; k < m; ++k) {
     const float s1 = kDark ? acc[k][0] + acc[k][3] : acc[k][0];
     const float s2 = acc[k][1];
     const float s3 = acc[k][2];
@@ -57,6 +86,31 @@ void sums_to_radiance(const Float4* acc, const float* gain, std::size_t m, float
     var[k] = vk;
     ok[k] = good;
   }
+}
+
+// One channel: radiance, variance and validity planes of a block; returns the invalid pixels.
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("tree-vectorize", "vect-cost-model=dynamic")))
+#endif
+std::size_t write_mono(const float* __restrict e, const float* __restrict var, const int* __restrict ok,
+                       const std::uint8_t* __restrict hot, std::size_t n, float* __restrict y, float* __restrict vy,
+                       float* __restrict valid) {
+  std::memcpy(y, e, n * sizeof(float));
+  std::memcpy(vy, var, n * sizeof(float));
+  int bad = 0;
+  if (hot) {
+    for (std::size_t p = 0; p < n; ++p) {
+      const int good = ok[p] & static_cast<int>(hot[p] == 0);
+      valid[p] = static_cast<float>(good);
+      bad += 1 - good;
+    }
+  } else {
+    for (std::size_t p = 0; p < n; ++p) {
+      valid[p] = static_cast<float>(ok[p]);
+      bad += 1 - ok[p];
+    }
+  }
+  return static_cast<std::size_t>(bad);
 }
 
 }  // namespace
@@ -114,15 +168,7 @@ struct HdrMerger::Impl {
     float* valid_plane = out->planes[static_cast<std::size_t>(2 * C)].data() + p0;
     std::size_t bad = 0;
     if (C == 1) {
-      float* y = out->planes[0].data() + p0;
-      float* vy = out->planes[1].data() + p0;
-      for (std::size_t p = 0; p < np; ++p) {
-        const bool good = ok[p] && !(hot && hot[p]);
-        y[p] = e[p];
-        vy[p] = var[p];
-        valid_plane[p] = good ? 1.0f : 0.0f;
-        bad += !good;
-      }
+      bad = write_mono(e, var, ok, hot, np, out->planes[0].data() + p0, out->planes[1].data() + p0, valid_plane);
     } else {
       float* y[3];
       float* vy[3];
