@@ -251,10 +251,12 @@ const MonoStack& mono_stack() {
   return s;
 }
 
-void mono_merge(benchmark::State& state, bool with_dark_and_flat) {
+void mono_merge(benchmark::State& state, bool with_dark_and_flat, bool baseline = false) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(0)));
   const MonoStack& s = mono_stack();
-  acq::HdrMerger merger(with_dark_and_flat ? s.full : s.response_only, {}, kWidth, kHeight, 1, 16);
+  acq::HdrOptions options;
+  options.baseline_simd = baseline;
+  acq::HdrMerger merger(with_dark_and_flat ? s.full : s.response_only, options, kWidth, kHeight, 1, 16);
   const auto frames = frames_of(s.images, s.t);
   for (auto _ : state) {
     acq::HdrResult r = merger.merge(frames);
@@ -266,6 +268,8 @@ void mono_merge(benchmark::State& state, bool with_dark_and_flat) {
 
 void BM_OursMerge16BitMonoResponse(benchmark::State& s) { mono_merge(s, false); }
 void BM_OursMerge16BitMonoResponseDarkFlat(benchmark::State& s) { mono_merge(s, true); }
+// The same with the x86-64 baseline inner loops (a rig computer without AVX2).
+void BM_OursMerge16BitMonoResponseDarkFlatBaselineSimd(benchmark::State& s) { mono_merge(s, true, true); }
 
 // Memory bandwidth for scale: the 16-bit stack copied once (bytes counted once, as input).
 void BM_MemcpyStack16BitMono(benchmark::State& state) {
@@ -283,6 +287,7 @@ BENCHMARK(BM_OpenCvMergeRobertson8BitRgb)->Unit(benchmark::kMillisecond)->UseRea
 BENCHMARK(BM_OursMerge8BitRgb)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
 BENCHMARK(BM_OursMerge16BitMonoResponse)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
 BENCHMARK(BM_OursMerge16BitMonoResponseDarkFlat)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
+BENCHMARK(BM_OursMerge16BitMonoResponseDarkFlatBaselineSimd)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
 BENCHMARK(BM_MemcpyStack16BitMono)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
 
 // Keeps each benchmark's real time per iteration (ms) for the summary.
@@ -341,6 +346,9 @@ int main(int argc, char** argv) {
                 kind, get(base + "1/"), c1, mono_bytes / c1 * 1e-6, r2, mono_bytes / r2 * 1e-6,
                 std::string(kind) == "ResponseDarkFlat" ? " (goal >= 2 GB/s on 2 cores)" : "");
   }
+  const double cb = cpu("BM_OursMerge16BitMonoResponseDarkFlatBaselineSimd/1/");
+  std::printf("  16-bit mono (ResponseDarkFlat) with the x86-64 baseline loops: 1 thread %.1f ms CPU = %.2f GB/s per core\n",
+              cb, mono_bytes / cb * 1e-6);
   const double mc = get("BM_MemcpyStack16BitMono/");
   std::printf("  memcpy of the 16-bit stack (1 thread): %.1f ms, %.2f GB/s read (%.2f GB/s read+write)\n", mc,
               mono_bytes / mc * 1e-6, 2 * mono_bytes / mc * 1e-6);
