@@ -106,6 +106,7 @@ struct FitArgs {
   std::uint64_t seed = 1;
   int max_iterations = 100;
   std::uint32_t min_samples = 1;
+  std::string residuals = "log";
   ExtractArgs extract;
 };
 
@@ -117,6 +118,7 @@ int run_fit(const FitArgs& a) {
   req.cook_torrance.threads = a.extract.threads;
   req.cook_torrance.max_iterations = a.max_iterations;
   req.cook_torrance.data.min_samples = a.min_samples;
+  req.cook_torrance.data.residuals = fit::fit_residuals_from_string(a.residuals, "--residuals");
   req.cook_torrance.check();
   req.axf_carpaint.lobes = a.lobes;
   req.axf_carpaint.seed = a.seed;
@@ -211,6 +213,10 @@ void register_fit_commands(CLI::App& app) {
   fit->add_option("--min-samples", args->min_samples,
                   "Pool neighbouring phi_d bins into fit points of at least this many samples (sessions with flake "
                   "sparkle: 16 or more)")
+      ->capture_default_str();
+  fit->add_option("--residuals", args->residuals,
+                  "Cook-Torrance residuals: log, or linear (weights from the neighbouring bins and the sparkle-aware "
+                  "sample spread: unbiased for bin means under flake sparkle; see docs/fitting.md)")
       ->capture_default_str();
   add_extract_options(fit, args->extract);
   on_run(fit, [args] { return run_fit(*args); });

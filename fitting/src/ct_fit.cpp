@@ -62,7 +62,7 @@ struct CtParams {
 class CtChunkCost final : public ceres::CostFunction {
  public:
   CtChunkCost(const FitData* data, std::vector<const FitBin*> bins, int lobes)
-      : data_(data), bins_(std::move(bins)), n_(lobes) {
+      : data_(data), bins_(std::move(bins)), n_(lobes), linear_(data->linear) {
     set_num_residuals(3 * static_cast<int>(bins_.size()));
     for (int c = 0; c < 3; ++c) mutable_parameter_block_sizes()->push_back(n_ + 1);
     mutable_parameter_block_sizes()->push_back(2 * n_);
@@ -92,19 +92,25 @@ class CtChunkCost final : public ceres::CostFunction {
         const std::size_t row = 3 * q + static_cast<std::size_t>(c);
         const double* lin = parameters[c];
         const double w = b.inv_sigma[c];
-        double f = 0.0;
+        double f = 0.0, g = 0.0;  // g: d residual / d f
         if (w != 0.0) {
           f = lin[0] * kInvPi;
           for (int l = 0; l < n_; ++l) f += lin[1 + l] * value[l];
-          // A model value this small (all of a channel's terms at their bound or underflowed)
-          // is no BRDF: the step is rejected, and 1/f cannot overflow the Jacobian.
-          if (!(f > kMinModelValue) || !std::isfinite(f)) return false;
-          residuals[row] = (std::log(f) - b.target[c]) * w;
+          if (linear_) {
+            if (!std::isfinite(f)) return false;
+            g = b.linear_weight[c];
+            residuals[row] = (f - b.value[c]) * g;
+          } else {
+            // A model value this small (all of a channel's terms at their bound or underflowed)
+            // is no BRDF: the step is rejected, and 1/f cannot overflow the Jacobian.
+            if (!(f > kMinModelValue) || !std::isfinite(f)) return false;
+            residuals[row] = (std::log(f) - b.target[c]) * w;
+            g = w / f;
+          }
         } else {
           residuals[row] = 0.0;
         }
         if (!want_jacobian) continue;
-        const double g = w != 0.0 ? w / f : 0.0;
         for (int cb = 0; cb < 3; ++cb) {
           if (!jacobians[cb]) continue;
           double* jl = jacobians[cb] + row * nlin;
@@ -131,6 +137,7 @@ class CtChunkCost final : public ceres::CostFunction {
   const FitData* data_;
   std::vector<const FitBin*> bins_;
   int n_;
+  bool linear_;
 };
 
 struct Solved {
@@ -193,6 +200,12 @@ Solved solve(const FitData& data, const std::vector<const FitBin*>& bins, CtPara
   return out;
 }
 
+// The weight of (f - v) in the linear least-squares problems of the starts: the linear
+// residual's weight, or for log residuals their linearisation (f - v) / (sigma v).
+double linear_weight(const FitData& data, const FitBin& b, int c) {
+  return data.linear ? b.linear_weight[c] : b.inv_sigma[c] / b.value[c];
+}
+
 struct GridStart {
   CtParams params;
   double cost = 0;
@@ -223,7 +236,7 @@ std::vector<GridStart> grid_starts(const FitData& data, const std::vector<const 
     }
     for (int c = 0; c < 3; ++c) {
       if (b->inv_sigma[c] == 0.0) continue;
-      const double w = b->inv_sigma[c] / b->value[c];
+      const double w = linear_weight(data, *b, c);
       const double w2 = w * w;
       gram[c].selfadjointView<Eigen::Lower>().rankUpdate(phi, w2);
       rhs[c] += w2 * b->value[c] * phi;
@@ -289,7 +302,7 @@ std::vector<GridStart> warm_starts(const FitData& data, const std::vector<const 
     }
     for (int c = 0; c < 3; ++c) {
       if (b->inv_sigma[c] == 0.0) continue;
-      const double w = b->inv_sigma[c] / b->value[c];
+      const double w = linear_weight(data, *b, c);
       gram[c].selfadjointView<Eigen::Lower>().rankUpdate(phi, w * w);
       rhs[c] += w * w * b->value[c] * phi;
     }
@@ -414,6 +427,7 @@ Json FitSummary::to_json() const {
           {"chi2_per_dof", chi2_per_dof},
           {"time_s", time_s},
           {"seed", seed},
+          {"residuals", residual_form},
           {"starts", s},
           {"covariance_ok", covariance_ok},
           {"covariance_message", covariance_message}};
@@ -493,6 +507,7 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
 
   CookTorranceFit fit;
   fit.summary.seed = o.seed;
+  fit.summary.residual_form = data.linear ? "linear" : "log";
   Solved best;
   double best_cost = std::numeric_limits<double>::infinity();
   for (GridStart& s : starts) {

@@ -15,6 +15,97 @@ using brdf::kMerlPhiD;
 using brdf::kMerlThetaD;
 using brdf::kMerlThetaH;
 
+// Linear residual weights of every fit point (fit_data.h): the reference value from the
+// samples of the neighbouring bins, the point's own bins left out, so that a point's weight
+// does not depend on its own (sparkle-skewed) value; the per-sample scatter pooled over
+// many bins (a cell of one theta_h row and ten theta_d rows, else the whole theta_h row,
+// else the rows around it):
+// a variance estimated from a few samples would make some weights huge by chance.
+template <typename Usable>
+void linear_weights(FitData& data, const brdf::MerlTable& table, const std::vector<std::uint32_t>& member_bin,
+                    const Usable& usable) {
+  const double floor2 = data.options.relative_floor * data.options.relative_floor;
+  const int W = data.options.window_phi_d;
+  // Which fit point every bin belongs to (-1: none).
+  std::vector<std::int32_t> point_of(kMerlBins, -1);
+  for (std::size_t q = 0; q < data.bins.size(); ++q) {
+    const FitBin& b = data.bins[q];
+    for (std::uint32_t m = b.member_begin; m < b.member_begin + b.member_count; ++m)
+      point_of[member_bin[m]] = static_cast<std::int32_t>(q);
+  }
+  // Pooled relative scatter: sum (n - 1) var / sum (n - 1) mean^2 per cell and per row.
+  constexpr int kCellRows = 10;  // theta_d rows per cell
+  constexpr int kCells = kMerlThetaD / kCellRows;
+  constexpr double kMinDof = 50.0;
+  struct Pool {
+    std::array<double, 3> var{0, 0, 0}, mean2{0, 0, 0};
+    double dof = 0;
+  };
+  std::vector<Pool> cell(static_cast<std::size_t>(kMerlThetaH * kCells)), row(kMerlThetaH);
+  if (data.has_statistics)
+    for (std::size_t b = 0; b < kMerlBins; ++b) {
+      if (table.count(b) < 2 || !usable(b)) continue;
+      const brdf::MerlBin mb = brdf::merl_bin_of_flat(b);
+      const double dof = static_cast<double>(table.count(b)) - 1.0;
+      const brdf::Rgb v = table.value(b), var = table.variance(b);
+      for (Pool* p : {&cell[static_cast<std::size_t>(mb.theta_h * kCells + mb.theta_d / kCellRows)], &row[mb.theta_h]}) {
+        p->dof += dof;
+        for (int c = 0; c < 3; ++c) {
+          p->var[c] += dof * var[c];
+          p->mean2[c] += dof * v[c] * v[c];
+        }
+      }
+    }
+  for (std::size_t q = 0; q < data.bins.size(); ++q) {
+    FitBin& b = data.bins[q];
+    // The point's bins are consecutive phi_d bins of one (theta_h, theta_d) row.
+    const brdf::MerlBin first = brdf::merl_bin_of_flat(member_bin[b.member_begin]);
+    const brdf::MerlBin last = brdf::merl_bin_of_flat(member_bin[b.member_begin + b.member_count - 1]);
+    std::array<double, 3> sum_v{0, 0, 0};
+    double sum_n = 0;
+    // The window; twice as wide where it holds fewer samples than the point.
+    for (int widen = 1; widen <= 2 && sum_n < std::max(1.0, static_cast<double>(b.count)); ++widen) {
+      sum_n = 0;
+      sum_v = {0, 0, 0};
+      const int dj = widen, dk = W * widen;
+      for (int j = first.theta_d - dj; j <= first.theta_d + dj; ++j) {
+        if (j < 0 || j >= kMerlThetaD) continue;
+        const int k_lo = std::max(0, first.phi_d - dk), k_hi = std::min(kMerlPhiD - 1, last.phi_d + dk);
+        for (int k = k_lo; k <= k_hi; ++k) {
+          const std::size_t nb = brdf::merl_flat_index({first.theta_h, j, k});
+          if (point_of[nb] == static_cast<std::int32_t>(q) || !usable(nb)) continue;
+          const brdf::Rgb v = table.value(nb);
+          if (!(v > 0.0).all()) continue;
+          const double n = data.has_statistics ? static_cast<double>(table.count(nb)) : 1.0;
+          sum_n += n;
+          for (int c = 0; c < 3; ++c) sum_v[c] += n * v[c];
+        }
+      }
+    }
+    // The cell, else the theta_h row, else the rows around it.
+    Pool pool = cell[static_cast<std::size_t>(first.theta_h * kCells + first.theta_d / kCellRows)];
+    if (pool.dof < kMinDof) pool = row[first.theta_h];
+    for (int d = 1; pool.dof < kMinDof && d < kMerlThetaH; ++d)
+      for (int i : {first.theta_h - d, first.theta_h + d}) {
+        if (i < 0 || i >= kMerlThetaH) continue;
+        pool.dof += row[i].dof;
+        for (int c = 0; c < 3; ++c) {
+          pool.var[c] += row[i].var[c];
+          pool.mean2[c] += row[i].mean2[c];
+        }
+      }
+    const double n = std::max(1.0, static_cast<double>(b.count));
+    for (int c = 0; c < 3; ++c) {
+      if (b.inv_sigma[c] == 0.0) continue;
+      const double ref = sum_n > 0.0 && sum_v[c] > 0.0 ? sum_v[c] / sum_n : b.value[c];
+      // The point's own noise variance (fit_data.h: noise_sigma^2 = rho / n).
+      double rho = b.noise_sigma[c] * b.noise_sigma[c] * n;
+      if (pool.dof > 0.0 && pool.mean2[c] > 0.0) rho = std::max(rho, pool.var[c] / pool.mean2[c]);
+      b.linear_sigma[c] = std::sqrt(rho / n + floor2);
+      b.linear_weight[c] = 1.0 / (b.linear_sigma[c] * ref);
+    }
+  }
+}
 
 }  // namespace
 
@@ -23,6 +114,22 @@ void FitDataOptions::check() const {
     throw DataError(fmt::format("FitDataOptions::relative_floor = {}. Violated constraint: in (0, 1)", relative_floor));
   if (min_samples < 1)
     throw DataError(fmt::format("FitDataOptions::min_samples = {}. Violated constraint: >= 1", min_samples));
+  if (window_phi_d < 1 || window_phi_d > kMerlPhiD / 2)
+    throw DataError(fmt::format("FitDataOptions::window_phi_d = {}. Violated constraint: 1..90", window_phi_d));
+}
+
+const char* to_string(FitResiduals r) {
+  switch (r) {
+    case FitResiduals::Log: return "log";
+    case FitResiduals::Linear: return "linear";
+  }
+  return "?";
+}
+
+FitResiduals fit_residuals_from_string(std::string_view s, std::string_view where) {
+  if (s == "log") return FitResiduals::Log;
+  if (s == "linear") return FitResiduals::Linear;
+  throw DataError(fmt::format("{}: unknown residual form '{}' (expected log or linear)", where, s));
 }
 
 const char* to_string(NoiseSource s) {
@@ -134,6 +241,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& opt
     Eigen::Vector3d coords = Eigen::Vector3d::Zero();  // sums weighted by count
     std::array<double, 3> value{0, 0, 0}, rho{0, 0, 0};
   };
+  std::vector<std::uint32_t> member_bin;  // the table bin of every data.members entry
   auto emit = [&](const Group& g) {
     FitBin fb;
     fb.bin = static_cast<std::uint32_t>(g.first);
@@ -145,6 +253,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& opt
     fb.member_begin = static_cast<std::uint32_t>(data.members.size());
     fb.member_count = static_cast<std::uint32_t>(g.members.size());
     for (const auto& [bin, n] : g.members) {
+      member_bin.push_back(static_cast<std::uint32_t>(bin));
       FitMember m;
       m.coords = table.mean_coords(bin);
       m.geometry = brdf::LobeGeometry::from_half_diff(m.coords[0], m.coords[1], m.coords[2]);
@@ -162,10 +271,12 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& opt
       ++data.residuals;
       any = true;
     }
-    if (any)
+    if (any) {
       data.bins.push_back(fb);
-    else
+    } else {
       data.members.resize(fb.member_begin);
+      member_bin.resize(fb.member_begin);
+    }
   };
   const double target = data.has_statistics ? static_cast<double>(options.min_samples) : 0.0;
   for (int i = 0; i < kMerlThetaH; ++i)
@@ -216,6 +327,8 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& opt
     throw DataError(fmt::format("the table has no measured bins with positive values{}: nothing to fit",
                                 options.min_count > 1 ? fmt::format(" and at least {} samples", options.min_count)
                                                       : std::string()));
+  data.linear = options.residuals == FitResiduals::Linear;
+  if (data.linear) linear_weights(data, table, member_bin, usable);
   return data;
 }
 

@@ -127,6 +127,66 @@ TEST(CookTorranceFit, RecoversTwoLobes) {
   expect_recovered(truth, fit.params);
 }
 
+// Linear residuals (fit_data.h): a point's weight comes from its neighbours' samples and
+// the pooled spread, not from its own value, so a bin that caught a glint is not weighted
+// down for it (log residuals weigh by 1 / value).
+TEST(FitData, LinearWeightsDoNotDependOnTheBinsOwnValue) {
+  brdf::MerlTable table;
+  const int i = 30, j = 20;
+  auto fill = [&](double glint) {
+    for (int k = 0; k < brdf::kMerlPhiD; ++k) {
+      const std::size_t b = brdf::merl_flat_index({i, j, k});
+      const double v = k == 90 ? glint : 1.0;
+      table.set_value(b, brdf::Rgb(v, v, v), brdf::BinState::Measured);
+      // 4 samples, relative per-sample variance 0.04 (20 %).
+      table.set_statistics(b, 4, brdf::Rgb(0.04, 0.04, 0.04), brdf::merl_bin_centre(b));
+    }
+  };
+  const std::size_t glint_bin = brdf::merl_flat_index({i, j, 90});
+  auto point = [&](const FitData& d) -> const FitBin& {
+    for (const FitBin& b : d.bins)
+      if (b.bin == glint_bin) return b;
+    ADD_FAILURE() << "no fit point for the bin";
+    return d.bins.front();
+  };
+  FitDataOptions o;
+  o.residuals = FitResiduals::Linear;
+  fill(1.0);
+  const FitData plain = prepare_fit_data(table, o);
+  EXPECT_TRUE(plain.linear);
+  const FitBin& p0 = point(plain);
+  // ref = 1 (the neighbours), sigma' = sqrt(0.04 / 4 + 0.01^2).
+  EXPECT_THAT(p0.linear_sigma[1], NearRel(std::sqrt(0.01 + 1e-4), 1e-6));
+  EXPECT_THAT(p0.linear_weight[1], NearRel(1.0 / std::sqrt(0.01 + 1e-4), 1e-6));
+  fill(3.0);  // the bin caught a glint
+  const FitData glint = prepare_fit_data(table, o);
+  // Only through the spread pooled over the 180 bins of the row (2 %).
+  EXPECT_THAT(point(glint).linear_weight[1], NearRel(p0.linear_weight[1], 0.03));
+  // Log residuals: the linearised weight inv_sigma / value falls threefold.
+  o.residuals = FitResiduals::Log;
+  const FitData log_plain = prepare_fit_data(table, o);
+  EXPECT_FALSE(log_plain.linear);
+  const FitBin& lp = point(log_plain);
+  EXPECT_LT(lp.inv_sigma[1] / lp.value[1], 0.4 * point(plain).inv_sigma[1] / point(plain).value[1]);
+  EXPECT_EQ(fit_residuals_from_string("linear", "test"), FitResiduals::Linear);
+  EXPECT_THROW(fit_residuals_from_string("auto", "test"), DataError);
+  o.window_phi_d = 0;
+  EXPECT_THROW(o.check(), DataError);
+}
+
+TEST(CookTorranceFit, RecoversTwoLobesWithLinearResiduals) {
+  const brdf::CookTorranceParams truth = blue_params();
+  const brdf::CookTorrance paint(truth.kd, truth.lobes);
+  const BinnedTable binned = test_support::binned_sweep(paint, 100, 0.02, test::seed(), 2.0);
+  CtFitOptions opt = quick_options(2);
+  opt.data.residuals = FitResiduals::Linear;
+  const CookTorranceFit fit = fit_cook_torrance(prepare_fit_data(binned.table, opt.data, &binned.noise_variance), opt);
+  print_fit("binned blue, 2 % noise, linear residuals", fit);
+  EXPECT_EQ(fit.summary.residual_form, "linear");
+  EXPECT_TRUE(fit.summary.converged) << fit.summary.termination;
+  expect_recovered(truth, fit.params);
+}
+
 TEST(CookTorranceFit, BadInputIsRejected) {
   brdf::MerlTable empty;
   EXPECT_THROW(prepare_fit_data(empty), DataError);

@@ -113,10 +113,12 @@ TEST(SimPipeline, SolidBlueTwoLobes) {
 // With flake sparkle single pixels vary by 100 % and more, so the fit pools phi_d bins to
 // fit points of at least 16 samples (the log of a mean over many samples is not biased by
 // the glints). Measured state (docs/fitting.md "Sparkle"): kd, the broad flake lobe and the
-// clear coat meet the targets and the medium lobe's m is within 2 %, but its ks comes out
-// about 15 % low and its r a few % high, and the residual is far above the pixel-noise floor
-// (which does not know about sparkle). The local variance model (--variance local) and the
-// bins' own spread as noise did worse (m of the medium lobe 30 % and 10 % low).
+// clear coat meet the targets (ks 3 %, m 2 %, r 5 %). The medium flake lobe does not, and
+// cannot with this measurement: its ks and r separate only through the Fresnel rise at
+// theta_d > 65 deg, where the glints of a few hundred fixed flakes decide; over three flake
+// fields (simulator seeds) its ks came out -15 %, +14 %, -31 % and r +6 %, -20 %, +26 %
+// (log residuals; linear residuals scatter more), its m 1.4-4.6 % low. Asserted: what this
+// seed reaches, which is inside that scatter.
 TEST(SimPipeline, SilverMetallicWithSparkle) {
   const brdf::CookTorranceParams truth = *paint("silver-metallic").cook_torrance();
   Sweep w;
@@ -130,9 +132,11 @@ TEST(SimPipeline, SilverMetallicWithSparkle) {
     for (int c = 0; c < 3; ++c)
       EXPECT_THAT(f.params.lobes[l].ks[c], NearRel(truth.lobes[l].ks[c], 0.03)) << "lobe " << l << " ks " << c;
     EXPECT_THAT(f.params.lobes[l].m, NearRel(truth.lobes[l].m, 0.02)) << "lobe " << l;
+    EXPECT_THAT(f.params.lobes[l].r, NearRel(truth.lobes[l].r, 0.05)) << "lobe " << l;
   }
   EXPECT_THAT(f.params.lobes[1].m, NearRel(truth.lobes[1].m, 0.03));
   EXPECT_THAT(f.params.lobes[1].ks[1], NearRel(truth.lobes[1].ks[1], 0.25));
+  EXPECT_THAT(f.params.lobes[1].r, NearRel(truth.lobes[1].r, 0.10));
 }
 
 // The layered pearlescent paint is no sum of Cook-Torrance lobes: the residual per region

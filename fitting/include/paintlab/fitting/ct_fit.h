@@ -2,6 +2,7 @@
 // Fit of the multi-lobe Cook-Torrance model (Günther et al. 2005, eq. 1; models.md) to a
 // binned table with Ceres (docs/fitting.md "Cook-Torrance fit"):
 //  - residuals: whitened log residuals (log f(mean coords) - y_bc) / sigma_bc of fit_data.h,
+//    or (FitDataOptions::residuals = Linear) (f - v_bc) / (sigma'_bc ref_bc) (fit_data.h),
 //    one residual block per chunk of bins (3 residuals per bin); a Huber loss on them;
 //  - parameters: per channel (kd_c, ks_1c .. ks_Nc) >= 0, shared (m_l, r_l) with m in
 //    [m_min, 1 - 1e-6] and r in [1e-6, 1 - 1e-6] (Ceres bounds, no penalty terms; paint files want (0, 1));
@@ -72,6 +73,7 @@ struct FitSummary {
   double chi2_per_dof = 0;         // 2 cost / (residuals - parameters)
   double time_s = 0;
   std::uint64_t seed = 0;
+  std::string residual_form = "log";  // "log" or "linear" (fit_data.h)
   std::vector<StartReport> starts;
   bool covariance_ok = false;
   std::string covariance_message;

@@ -18,11 +18,30 @@
 // Tables without sample statistics (a MERL file) get sigma = floor everywhere and no
 // correction. Only Measured bins are used: filled bins never count as measurements.
 // Models are evaluated at the bins' mean coordinates (models.md: centres bias narrow lobes).
+//
+// Linear residuals (FitResiduals::Linear, opt-in; docs/fitting.md "Sparkle"):
+//   r_bc     = (f_bc - v_bc) / (sigma'_bc ref_bc)
+//   ref_bc   = mean of the samples of the NEIGHBOURING bins (same theta_h row, theta_d +-1,
+//              phi_d within FitDataOptions::window_phi_d bins of the point; twice that where
+//              they hold fewer samples than the point), the point's own bins left out: a
+//              relative scale that does not know the point's own noise
+//   sigma'_bc = sqrt(rho'_bc / n_b + floor^2), rho'_bc = max(rho_bc, the relative spread of
+//              the samples pooled over a cell of one theta_h row and ten theta_d rows, else
+//              the row, else the rows around it): the per-sample scatter including flake
+//              sparkle, which the pixel-noise variance does not know about.
+// Why: with flake sparkle the samples of a bin are skewed (rare bright glints whose average
+// is the flake lobes), so the log of a bin mean is biased low by more than the delta method
+// repairs, and the robust loss on log residuals follows the median, lower still. The mean
+// of a bin is unbiased, and so is a least-squares fit of f to it whose weights do not
+// depend on the bin's own value. Measured on the simulated rig it recovers the flake lobes'
+// level better, but it weighs the peak by the sparkle-inflated spread and can lose the
+// clear coat on a small sweep, so log residuals stay the default.
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "paintlab/brdf/cook_torrance.h"
@@ -32,8 +51,19 @@
 
 namespace paintlab::fit {
 
+// How a fit compares model and data (see above).
+enum class FitResiduals {
+  Log,     // (log f - y) / sigma
+  Linear,  // (f - v) / (sigma' ref)
+};
+const char* to_string(FitResiduals r);  // "log", "linear"
+// DataError naming `where` for other names.
+FitResiduals fit_residuals_from_string(std::string_view s, std::string_view where);
+
 struct FitDataOptions {
   double relative_floor = 0.01;  // floor of sigma (relative error), > 0
+  FitResiduals residuals = FitResiduals::Log;
+  int window_phi_d = 8;          // Linear: phi_d bins on each side of a point in its reference window, 1..90
   bool delta_correction = true;
   std::uint32_t min_count = 1;   // measured bins with fewer samples are left out (tables with counts)
   // Consecutive phi_d bins of one (theta_h, theta_d) row are pooled into one fit point until
@@ -69,6 +99,8 @@ struct FitBin {
   std::array<double, 3> target{};                     // y_bc
   std::array<double, 3> inv_sigma{};                  // 1 / sigma_bc; 0 = channel not used (v <= 0)
   std::array<double, 3> noise_sigma{};                // sqrt(s2_bc): the log noise of the value alone
+  std::array<double, 3> linear_weight{};              // Linear: 1 / (sigma'_bc ref_bc); 0 = not used
+  std::array<double, 3> linear_sigma{};               // Linear: sigma'_bc (relative)
 };
 
 enum class NoiseSource { None, SampleSpread, SampleNoise };
@@ -80,6 +112,7 @@ struct FitData {
   std::size_t residuals = 0;     // used (bin, channel) pairs
   bool has_statistics = false;   // counts and variances were available
   NoiseSource noise_source = NoiseSource::None;
+  bool linear = false;           // residuals in linear form (FitResiduals::Linear)
   FitDataOptions options;
 };
 
