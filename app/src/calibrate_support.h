@@ -101,6 +101,7 @@ struct CalibrateContext {
   CalibSession* session = nullptr;                 // capturing
   std::optional<std::filesystem::path> images_dir;  // or images from files
   double albedo = 0.0;                              // the reference's (scale)
+  std::string k3;                                   // intrinsics: "fix", "free", or empty (decided from the data)
 };
 struct CalibrateStep {
   std::string name;

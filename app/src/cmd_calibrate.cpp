@@ -2,11 +2,11 @@
 // and its absolute scale (docs/calibration.md). Each step reads images from files or
 // captures them through the rig's devices, and writes one file of the calibration folder.
 //   paintlab calibrate intrinsics --images FILES... --board 9x6 --square 20 --out camera.json
-//   paintlab calibrate intrinsics --rig R --capture [--views 12]
+//   paintlab calibrate intrinsics --rig R --capture [--views 24] [--fix-k3 | --free-k3]
 //   paintlab calibrate sphere --rig R (--images FILES... | --capture) [--angles 90,270]
 //   paintlab calibrate light  --rig R (--images FILES... | --capture) [--angles -150:150:10]
 //   paintlab calibrate scale  --rig R (--images FILES... | --capture) --albedo A [--angles -40,0,40]
-//   paintlab calibrate all    --rig R (--images DIR | --capture) [--albedo A]
+//   paintlab calibrate all    --rig R (--images DIR | --capture) [--albedo A] [--fix-k3 | --free-k3]
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -114,14 +114,17 @@ struct IntrinsicsArgs {
   // known to ~0.015 px with 24 views and ~0.06 px with 12 (simulated 50 mm rig).
   int views = 24;
   std::string corner_method = "saddle-fit";
-  bool fix_k3 = false;
+  bool fix_k3 = false;   // k3 = 0
+  bool free_k3 = false;  // k3 fitted whatever its uncertainty; neither: decided from the data
 };
 
 void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig) {
   const calib::BoardSpec board = calib::BoardSpec::parse(a.board, a.square_mm);
   calib::IntrinsicsOptions o;
   o.corners.method = calib::corner_method_from_string(a.corner_method);
+  if (a.fix_k3 && a.free_k3) throw UsageError("calibrate intrinsics: give --fix-k3 or --free-k3, not both");
   o.fix_k3 = a.fix_k3;
+  o.auto_fix_k3 = !a.fix_k3 && !a.free_k3;
   std::vector<calib::BoardImage> images;
   std::vector<fs::path> inputs;
   std::vector<fs::path> paths;
@@ -158,6 +161,7 @@ void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig)
                   r.views_used, r.views.size(), r.rms_px, r.worst_px, r.camera.fx(), r.std.fx, r.camera.fy(), r.std.fy,
                   r.camera.cx(), r.std.cx, r.camera.cy(), r.std.cy, r.camera.dist[0], r.camera.dist[1], r.camera.dist[2],
                   r.camera.dist[3], r.camera.dist[4]));
+  if (!r.k3.note.empty()) say("  " + r.k3.note);
   for (const auto& v : r.views)
     if (!v.used) say(fmt::format("  dropped {}: {}", v.name, v.reason));
   say("  wrote " + out.string());
@@ -208,6 +212,11 @@ void run_light(CalibrateContext& c, const std::vector<std::string>& files, const
                   "height {:.2f} +- {:.2f} mm, zero {:.3f} +- {:.3f} deg, axis +- {:.3f} deg",
                   l.used, l.highlights.size(), l.rms_deg, l.max_deg, l.model.arm_radius_m * 1e3, l.arm_radius_std_m * 1e3,
                   l.model.arm_height_m * 1e3, l.arm_height_std_m * 1e3, l.model.zero_deg, l.zero_std_deg, l.axis_std_deg));
+  say(fmt::format("  highlight blur {:.3f} px{} ({})", l.blur_sigma_px,
+                  l.blur_std_px > 0 ? fmt::format(" +- {:.3f}", l.blur_std_px) : std::string(),
+                  l.blur_source == "highlights" ? "fitted to the highlights"
+                  : l.blur_source == "sphere"   ? "the silhouette's edge blur: too few highlights to fit it"
+                                                : "given"));
   for (const auto& h : l.highlights)
     if (!h.used) say(fmt::format("  not used {} ({:g} deg): {}", h.name, h.table_angle_deg, h.reason));
   say("  wrote " + out.string());
@@ -299,7 +308,8 @@ void register_calibrate_commands(CLI::App& app) {
     cmd->add_option("--out", a->out, "output file (default: the rig's calib/camera.json)");
     cmd->add_option("--views", a->views, "views to capture")->capture_default_str();
     cmd->add_option("--corner-method", a->corner_method, "saddle-fit or opencv-subpix")->capture_default_str();
-    cmd->add_flag("--fix-k3", a->fix_k3, "keep k3 = 0 (narrow fields of view, where k3 is unobservable)");
+    cmd->add_flag("--fix-k3", a->fix_k3, "keep k3 = 0 (default: fixed when the free fit leaves it less certain than its value)");
+    cmd->add_flag("--free-k3", a->free_k3, "fit k3 whatever its uncertainty");
     on_run(cmd, [a, common, context] {
       if (common->rig.empty()) {
         if (a->images.empty() || a->out.empty())
@@ -318,6 +328,8 @@ void register_calibrate_commands(CLI::App& app) {
                                  IntrinsicsArgs args = *a;
                                  args.images.clear();
                                  args.out.clear();
+                                 if (c.k3 == "fix") args.fix_k3 = true;
+                                 if (c.k3 == "free") args.free_k3 = true;
                                  run_intrinsics(c, args, true);
                                }});
   }
@@ -367,11 +379,17 @@ void register_calibrate_commands(CLI::App& app) {
     cmd->add_option("--images", *dir, "folder with one subfolder per step (intrinsics/, sphere/, light/, scale/, ...)");
     cmd->add_flag("--capture", a->capture, "capture through the rig's devices");
     cmd->add_option("--albedo", a->albedo, "the reference sphere's certified albedo (simulated rigs: 0.99)");
-    on_run(cmd, [a, dir, context] {
+    auto k3 = std::make_shared<std::pair<bool, bool>>(false, false);
+    cmd->add_flag("--fix-k3", k3->first, "intrinsics: keep k3 = 0 (default: fixed when the free fit leaves it less certain than its value)");
+    cmd->add_flag("--free-k3", k3->second, "intrinsics: fit k3 whatever its uncertainty");
+    on_run(cmd, [a, dir, k3, context] {
       if (dir->empty() == !a->capture) throw UsageError("calibrate all: give either --images DIR or --capture");
+      if (k3->first && k3->second) throw UsageError("calibrate all: give --fix-k3 or --free-k3, not both");
       std::unique_ptr<CalibSession> keep;
       CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
       if (!dir->empty()) c.images_dir = fs::path(*dir);
+      if (k3->first) c.k3 = "fix";
+      if (k3->second) c.k3 = "free";
       for (const auto& step : calibration_steps()) {
         say(fmt::format("== {} ==", step.name));
         step.run(c);

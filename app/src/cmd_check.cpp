@@ -91,7 +91,10 @@ void register_check_commands(CLI::App& app) {
         for (std::size_t i = 0; i < s.saturated.size(); ++i)
           if (s.saturated.values()[i]) h.pixels.values()[i] = std::numeric_limits<float>::infinity();
         h.saturated_at = std::numeric_limits<double>::infinity();
-        live.highlights.push_back(calib::find_highlight(h, cal.camera(), *cal.sphere(), rig.geometry));
+        // The blur light.json's highlights were fitted with (from the highlights themselves).
+        calib::LightOptions lo;
+        if (cal.light() && cal.light()->blur_source == "highlights") lo.blur_sigma_px = cal.light()->blur_sigma_px;
+        live.highlights.push_back(calib::find_highlight(h, cal.camera(), *cal.sphere(), rig.geometry, lo));
       }
     };
 

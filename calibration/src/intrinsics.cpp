@@ -22,6 +22,7 @@ void IntrinsicsOptions::check() const {
     throw UsageError("intrinsics: max_fallback_frac must be in [0, 1]");
   if (min_views < 3) throw UsageError("intrinsics: min_views must be >= 3 (got " + std::to_string(min_views) + ")");
   if (initial_focal_px < 0) throw UsageError("intrinsics: initial_focal_px must be >= 0");
+  if (!(k3_significance >= 0.0)) throw UsageError("intrinsics: k3_significance must be >= 0");
 }
 
 namespace {
@@ -331,6 +332,39 @@ IntrinsicsResult calibrate_views(const std::vector<CornerView>& views, std::vect
   return res;
 }
 
+// calibrate_views with k3 free, fixed, or decided from the free solution's uncertainty.
+IntrinsicsResult calibrate_views_k3(const std::vector<CornerView>& views, const std::vector<ViewReport>& reports,
+                                    const BoardSpec& board, cv::Size size, const IntrinsicsOptions& options) {
+  if (options.fix_k3 || !options.auto_fix_k3) {
+    IntrinsicsResult r = calibrate_views(views, reports, board, size, options);
+    r.k3.mode = options.fix_k3 ? "fixed" : "free";
+    r.k3.fixed = options.fix_k3;
+    if (options.fix_k3) r.k3.note = "k3 fixed at 0 (asked for)";
+    return r;
+  }
+  IntrinsicsResult free = calibrate_views(views, reports, board, size, options);
+  const double k3 = free.camera.dist[4], sd = free.std.dist[4];
+  free.k3.mode = "auto";
+  free.k3.free_value = k3;
+  free.k3.free_std = sd;
+  if (std::abs(k3) > options.k3_significance * sd) {
+    free.k3.note = fmt::format("k3 fitted: {:.4g} +- {:.4g} (more than {:g} standard deviations from 0)", k3, sd,
+                               options.k3_significance);
+    return free;
+  }
+  IntrinsicsOptions o = options;
+  o.fix_k3 = true;
+  o.auto_fix_k3 = false;
+  IntrinsicsResult fixed = calibrate_views(views, reports, board, size, o);
+  fixed.k3 = free.k3;
+  fixed.k3.fixed = true;
+  fixed.k3.note = fmt::format("k3 fixed at 0: the free fit gave k3 = {:.4g} +- {:.4g}, within {:g} standard deviations "
+                              "of 0 (not determined by these views: a narrow field of view, or the views miss the "
+                              "image's corners)",
+                              k3, sd, options.k3_significance);
+  return fixed;
+}
+
 }  // namespace
 
 IntrinsicsResult calibrate_from_corners(const std::vector<CornerView>& views, const BoardSpec& board, int width_px,
@@ -344,7 +378,7 @@ IntrinsicsResult calibrate_from_corners(const std::vector<CornerView>& views, co
     reports[i].blur_sigma_px = views[i].blur_sigma_px;
     reports[i].contrast = views[i].contrast;
   }
-  return calibrate_views(views, std::move(reports), board, cv::Size(width_px, height_px), options);
+  return calibrate_views_k3(views, reports, board, cv::Size(width_px, height_px), options);
 }
 
 IntrinsicsResult calibrate_intrinsics(const std::vector<BoardImage>& images, const BoardSpec& board,
@@ -382,7 +416,7 @@ IntrinsicsResult calibrate_intrinsics(const std::vector<BoardImage>& images, con
       r.reason = fmt::format("the corner model fit failed for {} of {} corners (blurred, glare or low contrast)",
                              det.fallback, board.corner_count());
   }
-  IntrinsicsResult res = calibrate_views(views, std::move(reports), board, cv::Size(w, h), options);
+  IntrinsicsResult res = calibrate_views_k3(views, reports, board, cv::Size(w, h), options);
   res.bit_depth = bit_depth;
   // Corner localisation uncertainty: median over the fitted corners of used views.
   std::vector<double> stds;
@@ -408,6 +442,12 @@ Json IntrinsicsResult::to_json() const {
               {"cx", std.cx},
               {"cy", std.cy},
               {"dist", Json::array({std.dist[0], std.dist[1], std.dist[2], std.dist[3], std.dist[4]})}};
+  {
+    Json k = {{"mode", k3.mode}, {"fixed", k3.fixed}};
+    if (std::isfinite(k3.free_value)) k["free_fit"] = {{"k3", k3.free_value}, {"std", k3.free_std}};
+    if (!k3.note.empty()) k["note"] = k3.note;
+    j["k3"] = k;
+  }
   j["board"] = {{"cols", board.cols}, {"rows", board.rows}, {"square_m", board.square_m}};
   j["corner_method"] = to_string(corner_method);
   j["bit_depth"] = bit_depth;
@@ -449,6 +489,16 @@ IntrinsicsResult IntrinsicsResult::from_json(const Json& j, const std::string& w
     r.std.cy = json_get<double>(s, "cy", where);
     auto d = json_get<std::vector<double>>(s, "dist", where);
     for (std::size_t i = 0; i < std::min<std::size_t>(5, d.size()); ++i) r.std.dist[i] = d[i];
+  }
+  if (j.contains("k3")) {
+    const Json& k = j.at("k3");
+    r.k3.mode = json_get_or<std::string>(k, "mode", "free", where);
+    r.k3.fixed = json_get_or<bool>(k, "fixed", false, where);
+    r.k3.note = json_get_or<std::string>(k, "note", "", where);
+    if (k.contains("free_fit")) {
+      r.k3.free_value = json_get<double>(k.at("free_fit"), "k3", where);
+      r.k3.free_std = json_get<double>(k.at("free_fit"), "std", where);
+    }
   }
   if (j.contains("board")) {
     const Json& b = j.at("board");

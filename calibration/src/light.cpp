@@ -107,17 +107,28 @@ struct SpherePixel {
 };
 
 // Lobe model around a specular normal n_s = normalize(n0 + u e1 + v e2) on a square grid
-// of pixels, blurred by a separable Gaussian. Parameters: (u, v), log m, A, background.
+// of pixels, blurred by a separable Gaussian (taps exp(-d^2 / 2 sigma^2) at whole pixels,
+// normalised; radius kr). Parameters: (u, v), log m, A, background, log sigma.
 struct HighlightCost {
   const std::vector<SpherePixel>* grid;
   int side;
-  std::vector<double> kernel;  // odd length, sums to 1
+  int kr;  // kernel radius (px); 0: no blur
   Vec3 centre, n0, e1, e2;
   double radius, led_distance;
   template <class T>
-  bool operator()(const T* uv, const T* logm, const T* amp, const T* bg, T* res) const {
+  bool operator()(const T* uv, const T* logm, const T* amp, const T* bg, const T* logblur, T* res) const {
     using std::exp;
     using std::sqrt;
+    std::vector<T> kernel;
+    if (kr > 0) {
+      const T inv2s2 = T(0.5) * exp(T(-2.0) * logblur[0]);
+      T sum(0.0);
+      for (int d = -kr; d <= kr; ++d) {
+        kernel.push_back(exp(-T(static_cast<double>(d * d)) * inv2s2));
+        sum += kernel.back();
+      }
+      for (T& w : kernel) w /= sum;
+    }
     Eigen::Matrix<T, 3, 1> ns = n0.cast<T>() + uv[0] * e1.cast<T>() + uv[1] * e2.cast<T>();
     ns /= sqrt(ns.squaredNorm());
     const Eigen::Matrix<T, 3, 1> X = centre.cast<T>() + T(radius) * ns;
@@ -143,18 +154,18 @@ struct HighlightCost {
       const T tan2 = (T(1.0) - c2) / c2;
       model[i] = amp[0] * exp(-tan2 / m2) / T(p.normal.dot(p.wo)) + bg[0];
     }
-    const int k = static_cast<int>(kernel.size()) / 2;
+    const int k = kr;
     if (k > 0) {
       for (int y = 0; y < side; ++y)
         for (int x = 0; x < side; ++x) {
           T s(0.0);
-          for (int d = -k; d <= k; ++d) s += T(kernel[static_cast<std::size_t>(d + k)]) * model[static_cast<std::size_t>(y * side + std::clamp(x + d, 0, side - 1))];
+          for (int d = -k; d <= k; ++d) s += kernel[static_cast<std::size_t>(d + k)] * model[static_cast<std::size_t>(y * side + std::clamp(x + d, 0, side - 1))];
           tmp[static_cast<std::size_t>(y * side + x)] = s;
         }
       for (int y = 0; y < side; ++y)
         for (int x = 0; x < side; ++x) {
           T s(0.0);
-          for (int d = -k; d <= k; ++d) s += T(kernel[static_cast<std::size_t>(d + k)]) * tmp[static_cast<std::size_t>(std::clamp(y + d, 0, side - 1) * side + x)];
+          for (int d = -k; d <= k; ++d) s += kernel[static_cast<std::size_t>(d + k)] * tmp[static_cast<std::size_t>(std::clamp(y + d, 0, side - 1) * side + x)];
           model[static_cast<std::size_t>(y * side + x)] = s;
         }
     }
@@ -246,19 +257,13 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
   const double r_half = std::sqrt(std::max(1, half_count) / kPi);
   const int hw = options.half_window_px > 0 ? static_cast<int>(options.half_window_px)
                                             : std::clamp(static_cast<int>(std::ceil(3.0 * r_half + 3.0)), 5, 60);
-  double blur = options.blur_sigma_px >= 0 ? options.blur_sigma_px
-                                           : (std::isfinite(sphere.edge_sigma_px) ? sphere.edge_sigma_px : 0.0);
-  std::vector<double> kernel;
-  if (blur > 0.05) {
-    const int kr = std::max(1, static_cast<int>(std::ceil(3.0 * blur)));
-    double sum = 0;
-    for (int d = -kr; d <= kr; ++d) {
-      kernel.push_back(std::exp(-0.5 * d * d / (blur * blur)));
-      sum += kernel.back();
-    }
-    for (double& w : kernel) w /= sum;
-  }
-  const int kr = static_cast<int>(kernel.size()) / 2;
+  const double blur = options.blur_sigma_px >= 0 ? options.blur_sigma_px
+                                                 : (std::isfinite(sphere.edge_sigma_px) ? sphere.edge_sigma_px : 0.0);
+  // Fitted blur: bounded to [0.1, max(1, 2 x start)] px, the kernel wide enough for the bound.
+  const double blur_max = std::max(1.0, 2.0 * blur);
+  const double blur_start = std::clamp(blur, 0.3, blur_max);
+  const int kr = options.fit_blur ? static_cast<int>(std::ceil(3.0 * blur_max))
+                                  : (blur > 0.05 ? std::max(1, static_cast<int>(std::ceil(3.0 * blur))) : 0);
   const int side = 2 * hw + 1;
   std::vector<SpherePixel> grid(static_cast<std::size_t>(side * side));
   for (int j = 0; j < side; ++j)
@@ -306,10 +311,17 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
   double uv[2] = {0.0, 0.0};
   double logm = std::log(std::clamp(r_half / (0.83 * rho_px * cos_o), 1e-3, 0.3));
   double amp = (best - level) * cos_o, bg = level;
-  auto* cost = new ceres::AutoDiffCostFunction<HighlightCost, ceres::DYNAMIC, 2, 1, 1, 1>(
-      new HighlightCost{&grid, side, kernel, C, n0, e1, e2, R, led_distance}, n_data);
+  double logblur = std::log(options.fit_blur ? blur_start : std::max(blur, 0.05));
+  auto* cost = new ceres::AutoDiffCostFunction<HighlightCost, ceres::DYNAMIC, 2, 1, 1, 1, 1>(
+      new HighlightCost{&grid, side, kr, C, n0, e1, e2, R, led_distance}, n_data);
   ceres::Problem problem;
-  problem.AddResidualBlock(cost, nullptr, uv, &logm, &amp, &bg);
+  problem.AddResidualBlock(cost, nullptr, uv, &logm, &amp, &bg, &logblur);
+  if (options.fit_blur) {
+    problem.SetParameterLowerBound(&logblur, 0, std::log(0.1));
+    problem.SetParameterUpperBound(&logblur, 0, std::log(blur_max));
+  } else {
+    problem.SetParameterBlockConstant(&logblur);
+  }
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = 100;
@@ -330,18 +342,28 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
   const double view_deg = rad_to_deg(std::acos(std::clamp(ns.dot(v), -1.0, 1.0)));
   hl.px = camera.project(Xs);
   hl.roughness = m;
+  hl.blur_sigma_px = kr > 0 ? std::exp(logblur) : 0.0;
   hl.point_cam = Xs;
   hl.normal_cam = ns;
   hl.mirror_dir = mirror(ns, v).normalized();
   // Uncertainty of the specular pixel.
   ceres::Covariance::Options co;
   ceres::Covariance cov(co);
+  // A blur at its bound (a lobe that does not tell it) is not a parameter of the covariance.
+  const bool blur_free = options.fit_blur && logblur > std::log(0.1) + 1e-6 && logblur < std::log(blur_max) - 1e-6;
+  if (options.fit_blur && !blur_free) problem.SetParameterBlockConstant(&logblur);
   std::vector<std::pair<const double*, const double*>> blocks = {{uv, uv}};
+  if (blur_free) blocks.emplace_back(&logblur, &logblur);
   if (cov.Compute(blocks, &problem)) {
     double c[4];
     cov.GetCovarianceBlock(uv, uv, c);
-    const double dof = std::max(1.0, static_cast<double>(n_data) - 5.0);
+    const double dof = std::max(1.0, static_cast<double>(n_data) - (blur_free ? 6.0 : 5.0));
     const double s2 = 2.0 * summary.final_cost / dof;
+    if (blur_free) {
+      double cb = 0;
+      cov.GetCovarianceBlock(&logblur, &logblur, &cb);
+      hl.blur_std_px = hl.blur_sigma_px * std::sqrt(std::max(0.0, cb * s2));
+    }
     Eigen::Matrix2d Cuv;
     Cuv << c[0], c[1], c[2], c[3];
     Cuv *= s2;
@@ -605,9 +627,46 @@ LightCalibration fit_light_model(std::vector<Highlight> highlights, const Sphere
 
 LightCalibration calibrate_light(const std::vector<HighlightImage>& images, const CameraModel& camera,
                                  const SphereFit& sphere, const RigGeometry& nominal, const LightOptions& options) {
+  const double sphere_blur = std::isfinite(sphere.edge_sigma_px) ? sphere.edge_sigma_px : 0.0;
   std::vector<Highlight> hs;
-  for (const auto& im : images) hs.push_back(find_highlight(im, camera, sphere, nominal, options));
-  return fit_light_model(std::move(hs), sphere, nominal, options);
+  double blur = options.blur_sigma_px >= 0 ? options.blur_sigma_px : sphere_blur, blur_std = 0.0;
+  std::string source = options.blur_sigma_px >= 0 ? "given" : "sphere";
+  if (options.blur_sigma_px < 0 && options.common_blur && !options.fit_blur) {
+    // Pass 1: every lobe with its own blur; their weighted mean is the optics' blur.
+    LightOptions o1 = options;
+    o1.fit_blur = true;
+    std::vector<double> b, w;
+    for (const auto& im : images) {
+      const Highlight h = find_highlight(im, camera, sphere, nominal, o1);
+      if (h.found && h.blur_std_px > 0 && std::isfinite(h.blur_std_px) && h.blur_sigma_px > 0.11) {
+        b.push_back(h.blur_sigma_px);
+        w.push_back(1.0 / (h.blur_std_px * h.blur_std_px));
+      }
+    }
+    if (b.size() >= 3) {
+      // A lobe whose blur is far off the others' (a double reflection, dust) does not count.
+      const double med = median(b);
+      double sw = 0, swb = 0;
+      for (std::size_t i = 0; i < b.size(); ++i) {
+        if (std::abs(b[i] - med) > std::max(0.25 * med, 4.0 / std::sqrt(w[i]))) continue;
+        sw += w[i];
+        swb += w[i] * b[i];
+      }
+      if (sw > 0) {
+        blur = swb / sw;
+        blur_std = 1.0 / std::sqrt(sw);
+        source = "highlights";
+      }
+    }
+  }
+  LightOptions o2 = options;
+  o2.blur_sigma_px = blur;
+  for (const auto& im : images) hs.push_back(find_highlight(im, camera, sphere, nominal, o2));
+  LightCalibration cal = fit_light_model(std::move(hs), sphere, nominal, o2);
+  cal.blur_sigma_px = blur;
+  cal.blur_std_px = blur_std;
+  cal.blur_source = source;
+  return cal;
 }
 
 // ---- JSON ----
@@ -621,6 +680,7 @@ Json LightCalibration::to_json() const {
       o["px"] = Json::array({h.px.x(), h.px.y()});
       o["std_px"] = h.std_px;
       o["roughness"] = h.roughness;
+      o["blur_sigma_px"] = h.blur_sigma_px;
       o["residual_deg"] = h.residual_deg;
       o["azimuth_error_deg"] = h.azimuth_error_deg;
     }
@@ -634,6 +694,7 @@ Json LightCalibration::to_json() const {
               {"arm_height_m", arm_height_std_m},
               {"zero_deg", zero_std_deg},
               {"axis_deg", axis_std_deg}};
+  j["highlight_blur"] = {{"sigma_px", blur_sigma_px}, {"std_px", blur_std_px}, {"source", blur_source}};
   j["highlights"] = hs;
   j["provenance"] = provenance.to_json();
   return j;
@@ -652,6 +713,12 @@ LightCalibration LightCalibration::from_json(const Json& j, const std::string& w
     c.zero_std_deg = json_get_or<double>(s, "zero_deg", 0.0, where);
     c.axis_std_deg = json_get_or<double>(s, "axis_deg", 0.0, where);
   }
+  if (j.contains("highlight_blur")) {
+    const Json& b = j.at("highlight_blur");
+    c.blur_sigma_px = json_get_or<double>(b, "sigma_px", 0.0, where);
+    c.blur_std_px = json_get_or<double>(b, "std_px", 0.0, where);
+    c.blur_source = json_get_or<std::string>(b, "source", "", where);
+  }
   if (j.contains("highlights"))
     for (const Json& o : j.at("highlights")) {
       Highlight h;
@@ -664,6 +731,7 @@ LightCalibration LightCalibration::from_json(const Json& j, const std::string& w
       h.azimuth_error_deg = json_get_or<double>(o, "azimuth_error_deg", 0.0, where);
       h.std_px = json_get_or<double>(o, "std_px", 0.0, where);
       h.roughness = json_get_or<double>(o, "roughness", 0.0, where);
+      h.blur_sigma_px = json_get_or<double>(o, "blur_sigma_px", 0.0, where);
       if (o.contains("px")) {
         auto v = json_get<std::vector<double>>(o, "px", where);
         if (v.size() == 2) h.px = Vec2(v[0], v[1]);

@@ -100,9 +100,32 @@ ceres::Jet<T, N> limb_h(const ceres::Jet<T, N>& x) {
 // Radial profile of one sector: value I at radius r; t = e - r is the distance inside the
 // edge. F(t) = b + (c0 - b) Phi(t/s) + c1 sqrt(s) H(t/s) + c2 s (x Phi(x) + phi(x)).
 // Parameters: e, log s, b, c0, c1, c2.
+// With the pixel's box: a pixel integrates the image over its square, which seen along the
+// profile's direction phi is a box of width |cos phi| convolved with one of width |sin phi|
+// (the blur is that times the optics' Gaussian of width s). The box is applied by 3 x 3
+// Gauss-Legendre nodes along the profile.
+struct PixelBox {
+  int n = 1;
+  double offset[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  double weight[9] = {1, 0, 0, 0, 0, 0, 0, 0, 0};
+  static PixelBox along(double phi) {
+    PixelBox b;
+    const double g[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)}, w[3] = {5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0};
+    const double a = 0.5 * std::abs(std::cos(phi)), c = 0.5 * std::abs(std::sin(phi));
+    b.n = 9;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        b.offset[3 * i + j] = a * g[i] + c * g[j];
+        b.weight[3 * i + j] = w[i] * w[j];
+      }
+    return b;
+  }
+};
+
 struct ProfileCost {
   const std::vector<double>* r;
   const std::vector<double>* v;
+  PixelBox box;
   template <class T>
   bool operator()(const T* p, T* res) const {
     using std::erf;
@@ -111,10 +134,14 @@ struct ProfileCost {
     const T s = exp(p[1]);
     const T sq = sqrt(s);
     for (std::size_t i = 0; i < r->size(); ++i) {
-      const T x = (p[0] - T((*r)[i])) / s;
-      const T Phi = T(0.5) * (T(1.0) + erf(x * T(M_SQRT1_2)));
-      const T phi = exp(T(-0.5) * x * x) * T(1.0 / std::sqrt(2.0 * kPi));
-      res[i] = p[2] + (p[3] - p[2]) * Phi + p[4] * sq * limb_h(x) + p[5] * s * (x * Phi + phi) - T((*v)[i]);
+      T acc(0.0);
+      for (int k = 0; k < box.n; ++k) {
+        const T x = (p[0] - T((*r)[i]) + T(box.offset[k])) / s;
+        const T Phi = T(0.5) * (T(1.0) + erf(x * T(M_SQRT1_2)));
+        const T phi = exp(T(-0.5) * x * x) * T(1.0 / std::sqrt(2.0 * kPi));
+        acc += T(box.weight[k]) * ((p[3] - p[2]) * Phi + p[4] * sq * limb_h(x) + p[5] * s * (x * Phi + phi));
+      }
+      res[i] = p[2] + acc - T((*v)[i]);
     }
     return true;
   }
@@ -129,7 +156,7 @@ double profile_value(const double* p, double t) {
 
 struct SectorEdge {
   bool ok = false;
-  double e = 0, std = 0, sigma = 0, step = 0, strength = 0;
+  double e = 0, std = 0, sigma = 0, psf_sigma = 0, step = 0, strength = 0;
 };
 
 double median(std::vector<double> v) {
@@ -139,8 +166,8 @@ double median(std::vector<double> v) {
   return *mid;
 }
 
-SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v, double r0,
-                      const SphereOptions& o) {
+SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v, double r0, double phi,
+                      const SphereOptions& o, std::optional<double> c1_fixed = std::nullopt) {
   SectorEdge out;
   if (r.size() < 16) return out;
   // Start: background outside, level inside near the edge, edge where the profile crosses
@@ -169,15 +196,19 @@ SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v
       }
     }
   }
-  double p[6] = {e0, 0.0, b0, c00, 0.0, 0.0};
+  double p[6] = {e0, 0.0, b0, c00, c1_fixed ? *c1_fixed : 0.0, 0.0};
   const int n = static_cast<int>(r.size());
-  auto* cost = new ceres::AutoDiffCostFunction<ProfileCost, ceres::DYNAMIC, 6>(new ProfileCost{&r, &v}, n);
+  auto* cost = new ceres::AutoDiffCostFunction<ProfileCost, ceres::DYNAMIC, 6>(
+      new ProfileCost{&r, &v, o.pixel_box ? PixelBox::along(phi) : PixelBox{}}, n);
   std::unique_ptr<ceres::CostFunction> owned(cost);
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   problem.AddResidualBlock(cost, nullptr, p);
-  problem.SetParameterLowerBound(p, 1, std::log(0.1));
+  if (c1_fixed) problem.SetManifold(p, new ceres::SubsetManifold(6, {4}));
+  // With the pixel's box the optics may be sharper than the pixel (s at its bound).
+  const double s_min = o.pixel_box ? 0.05 : 0.1;
+  problem.SetParameterLowerBound(p, 1, std::log(s_min));
   problem.SetParameterUpperBound(p, 1, std::log(8.0));
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
@@ -191,18 +222,24 @@ SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v
   if (summary.termination_type == ceres::FAILURE) return out;
   const double sigma = std::exp(p[1]);
   if (!std::isfinite(p[0]) || p[0] < r0 - o.band_inside_px + 2.0 || p[0] > r0 + o.band_outside_px - 2.0) return out;
-  if (!(sigma > 0.11 && sigma < 7.9)) return out;
+  const bool sharp = o.pixel_box && sigma < 1.1 * s_min;  // the box alone: s is not a parameter
+  if (!((sharp || sigma > 1.1 * s_min) && sigma < 7.9)) return out;
 
   std::vector<double> res(static_cast<std::size_t>(n)), jac(static_cast<std::size_t>(n) * 6);
   const double* params[1] = {p};
   double* jacs[1] = {jac.data()};
   if (!cost->Evaluate(params, res.data(), jacs)) return out;
-  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> J(jac.data(), n, 6);
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> J6(jac.data(), n, 6);
+  // Free parameters: all six, but c1 when it is held and s when it sits at its bound.
+  const int nf = 6 - (c1_fixed ? 1 : 0) - (sharp ? 1 : 0);
+  Eigen::MatrixXd J(n, nf);
+  for (int k = 0, j = 0; k < 6; ++k)
+    if (!((c1_fixed && k == 4) || (sharp && k == 1))) J.col(j++) = J6.col(k);
   double rss = 0;
   for (double x : res) rss += x * x;
-  const double s2 = rss / std::max(1, n - 6);
-  Eigen::Matrix<double, 6, 6> JtJ = J.transpose() * J;
-  Eigen::Matrix<double, 6, 6> cov = JtJ.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity()) * s2;
+  const double s2 = rss / std::max(1, n - nf);
+  const Eigen::MatrixXd JtJ = J.transpose() * J;
+  const Eigen::MatrixXd cov = JtJ.ldlt().solve(Eigen::MatrixXd::Identity(nf, nf)) * s2;
   if (!(cov(0, 0) > 0) || !std::isfinite(cov(0, 0))) return out;
   // Edge strength: the model just inside the edge against the background.
   double strength = 0;
@@ -212,7 +249,8 @@ SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v
   out.ok = true;
   out.e = p[0];
   out.std = std::sqrt(cov(0, 0));
-  out.sigma = sigma;
+  out.psf_sigma = sigma;
+  out.sigma = o.pixel_box ? std::sqrt(sigma * sigma + 1.0 / 12.0) : sigma;
   out.step = p[3] - p[2];
   out.strength = strength;
   return out;
@@ -345,7 +383,7 @@ bool coarse_circle(const ImageF& img, Vec2* centre, double* radius) {
 
 // Edge points of one image around a centre, with the expected edge radius per angle.
 std::vector<EdgePoint> find_edges(const ImageF& img, const Vec2& c, const std::function<double(double)>& r0_of,
-                                  double r_max, const SphereOptions& o, int image_index) {
+                                  double r_max, const SphereOptions& o, int image_index, std::optional<double> onset) {
   const int K = std::max(32, static_cast<int>(std::lround(2.0 * kPi * r_max / o.sector_arc_px)));
   std::vector<std::vector<double>> rs(static_cast<std::size_t>(K)), vs(static_cast<std::size_t>(K));
   std::vector<double> r0(static_cast<std::size_t>(K));
@@ -368,24 +406,86 @@ std::vector<EdgePoint> find_edges(const ImageF& img, const Vec2& c, const std::f
       vs[static_cast<std::size_t>(k)].push_back(img.at(x, y));
     }
   // A sector that reaches the image border has a truncated profile: skip it.
-  std::vector<EdgePoint> out;
+  std::vector<SectorEdge> fits(static_cast<std::size_t>(K));
   for (int k = 0; k < K; ++k) {
     const double phi = -kPi + (k + 0.5) * 2.0 * kPi / K;
     const double rk = r0[static_cast<std::size_t>(k)];
     const Vec2 far = c + (rk + o.band_outside_px + 1.0) * Vec2(std::cos(phi), std::sin(phi));
     if (far.x() < 0 || far.y() < 0 || far.x() > img.width() - 1 || far.y() > img.height() - 1) continue;
-    SectorEdge s = fit_sector(rs[static_cast<std::size_t>(k)], vs[static_cast<std::size_t>(k)], rk, o);
+    SectorEdge& f = fits[static_cast<std::size_t>(k)];
+    f = fit_sector(rs[static_cast<std::size_t>(k)], vs[static_cast<std::size_t>(k)], rk, phi, o);
+    // A step edge with a free onset (the test that leaves out dark limbs) is fitted again
+    // with the onset the disc's shading gives.
+    if (f.ok && onset) f = fit_sector(rs[static_cast<std::size_t>(k)], vs[static_cast<std::size_t>(k)], rk, phi, o, onset);
+  }
+  std::vector<EdgePoint> out;
+  for (int k = 0; k < K; ++k) {
+    const double phi = -kPi + (k + 0.5) * 2.0 * kPi / K;
+    const SectorEdge& s = fits[static_cast<std::size_t>(k)];
     if (!s.ok) continue;
     EdgePoint e;
     e.px = c + s.e * Vec2(std::cos(phi), std::sin(phi));
     e.angle_rad = phi;
     e.std_px = std::max(s.std, 0.005);
     e.sigma_px = s.sigma;
+    e.psf_sigma_px = s.psf_sigma;
     e.step = s.step;
     e.image = image_index;
     out.push_back(e);
   }
   return out;
+}
+
+// The sqrt(t) onset of a lit limb's shading, from the shading of the whole disc. Near the
+// limb cos(theta_i) = (u . w)(1 - t/R) + (v . w) sqrt(2 t / R) (t px inside the edge of a
+// silhouette of R px, u the outward direction in the image, v towards the camera, w towards
+// the light): the onset A (v . w) sqrt(2 / R) is one figure for the whole outline. The disc's
+// lit pixels give A w: value = g . n + b over them (n the sphere normal at the pixel, g = A w).
+// Fitted per sector instead, the onset also soaks up any difference between the true blur
+// and the edge model's, on the inside only, and the edge moves (0.012 px outwards with the
+// simulator's sampled 0.5 px PSF: 0.05 mm of sphere depth). Nothing when the disc does not
+// look like a lit Lambertian sphere.
+std::optional<double> limb_onset(const ImageF& img, const CameraModel& camera, const Vec3& centre, double radius,
+                                 double rho_px) {
+  const Vec2 cpx = camera.project(centre);
+  const int step = std::max(1, static_cast<int>(rho_px / 60.0));
+  struct Px {
+    Vec3 n;
+    double v;
+  };
+  std::vector<Px> px;
+  double vmax = 0;
+  for (int y = static_cast<int>(cpx.y() - rho_px); y <= static_cast<int>(cpx.y() + rho_px); y += step)
+    for (int x = static_cast<int>(cpx.x() - rho_px); x <= static_cast<int>(cpx.x() + rho_px); x += step) {
+      if (x < 0 || y < 0 || x >= img.width() || y >= img.height()) continue;
+      if ((Vec2(x, y) - cpx).norm() > 0.9 * rho_px) continue;
+      auto X = intersect_sphere(camera.ray(Vec2(x, y)), centre, radius);
+      const double v = img.at(x, y);
+      if (!X || !std::isfinite(v)) continue;
+      px.push_back({(*X - centre) / radius, v});
+      vmax = std::max(vmax, v);
+    }
+  if (px.size() < 100 || !(vmax > 0)) return std::nullopt;
+  Vec3 g = Vec3::Zero();
+  for (int round = 0; round < 4; ++round) {
+    Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+    int n = 0;
+    for (const Px& p : px) {
+      const bool lit = round == 0 ? p.v > 0.3 * vmax : g.dot(p.n) > 0.15 * g.norm();
+      if (!lit) continue;
+      const Eigen::Vector4d a(p.n.x(), p.n.y(), p.n.z(), 1.0);
+      A += a * a.transpose();
+      rhs += a * p.v;
+      ++n;
+    }
+    if (n < 50) return std::nullopt;
+    const Eigen::Vector4d sol = A.ldlt().solve(rhs);
+    g = sol.head<3>();
+    if (!g.allFinite() || !(g.norm() > 0)) return std::nullopt;
+  }
+  const Vec3 v = (-centre).normalized();
+  return g.dot(v) * std::sqrt(2.0 / rho_px);
 }
 
 // ---- cone fit ----
@@ -524,7 +624,7 @@ SphereFit fit_sphere(const std::vector<SphereImage>& images, const CameraModel& 
       throw CalibrationError("sphere: no bright sphere found in '" + images[i].name + "' (is the LED on, the exposure long enough?)");
     centres.push_back(c);
     radii.push_back(r);
-    auto more = find_edges(img, c, [r](double) { return r; }, r, options, static_cast<int>(i));
+    auto more = find_edges(img, c, [r](double) { return r; }, r, options, static_cast<int>(i), std::nullopt);
     edges.insert(edges.end(), more.begin(), more.end());
   }
 
@@ -592,8 +692,11 @@ SphereFit fit_sphere(const std::vector<SphereImage>& images, const CameraModel& 
     return lo.second + (hi.second - lo.second) * std::clamp(t / span, 0.0, 1.0);
   };
   edges.clear();
+  const double rho_px = f * std::tan(cone.alpha);
   for (std::size_t i = 0; i < images.size(); ++i) {
-    auto more = find_edges(images[i].pixels, sc, r_of, rmax, options, static_cast<int>(i));
+    std::optional<double> onset;
+    if (options.limb_onset_from_shading) onset = limb_onset(images[i].pixels, camera, centre1, options.radius_m, rho_px);
+    auto more = find_edges(images[i].pixels, sc, r_of, rmax, options, static_cast<int>(i), onset);
     edges.insert(edges.end(), more.begin(), more.end());
   }
   for (auto& e : edges) e.used = true;
@@ -636,6 +739,15 @@ SphereFit fit_sphere(const std::vector<SphereImage>& images, const CameraModel& 
   for (const auto& e : edges)
     if (e.used && std::abs(e.step) >= 0.5 * max_step) sig_strong.push_back(e.sigma_px);
   fit.edge_sigma_px = median(sig_strong.size() >= 8 ? sig_strong : sig_all);
+  {
+    std::vector<double> psf_strong, psf_all;
+    for (const auto& e : edges) {
+      if (!e.used) continue;
+      psf_all.push_back(e.psf_sigma_px);
+      if (std::abs(e.step) >= 0.5 * max_step) psf_strong.push_back(e.psf_sigma_px);
+    }
+    fit.psf_sigma_px = median(psf_strong.size() >= 8 ? psf_strong : psf_all);
+  }
   fit.edge_width_px = 2.5631 * fit.edge_sigma_px;
   // Coverage: fraction of 5-degree bins around the outline with a used point.
   std::vector<bool> bins(72, false);
@@ -678,7 +790,7 @@ Vec3 SphereFit::centre_std_m() const {
 }
 
 Json SphereFit::to_json() const {
-  return {{"radius_m", radius_m},
+  Json j = {{"radius_m", radius_m},
           {"centre_cam_m", vector3_to_json(centre_cam_m)},
           {"centre_std_m", vector3_to_json(centre_std_m())},
           {"centre_cov_m2", matrix_to_json(centre_cov_m2)},
@@ -697,6 +809,8 @@ Json SphereFit::to_json() const {
           {"edges_total", edges_total},
           {"coverage", coverage},
           {"provenance", provenance.to_json()}};
+  if (std::isfinite(psf_sigma_px)) j["psf_sigma_px"] = psf_sigma_px;
+  return j;
 }
 
 SphereFit SphereFit::from_json(const Json& j, const std::string& where) {
@@ -712,6 +826,7 @@ SphereFit SphereFit::from_json(const Json& j, const std::string& where) {
   if (j.contains("ellipse")) s.ellipse_rms_px = json_get_or<double>(j.at("ellipse"), "rms_px", 0.0, where);
   s.edge_sigma_px = json_get_or<double>(j, "edge_sigma_px", std::numeric_limits<double>::quiet_NaN(), where);
   s.edge_width_px = json_get_or<double>(j, "edge_width_px", std::numeric_limits<double>::quiet_NaN(), where);
+  s.psf_sigma_px = json_get_or<double>(j, "psf_sigma_px", std::numeric_limits<double>::quiet_NaN(), where);
   s.edges_used = json_get_or<int>(j, "edges_used", 0, where);
   s.edges_total = json_get_or<int>(j, "edges_total", 0, where);
   s.coverage = json_get_or<double>(j, "coverage", 0.0, where);

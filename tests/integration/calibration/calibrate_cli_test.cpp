@@ -49,6 +49,10 @@ TEST(CalibrateCli, UsageErrorsExitTwoAndSayWhat) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, ::testing::HasSubstr("no such file or folder"));
   EXPECT_FALSE(fs::exists(dir / "c.json"));
+  r = test::run_paintlab("calibrate all --rig " + (dir / "rig.toml").string() + " --images " + dir.path().string() +
+                         " --fix-k3 --free-k3");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("give --fix-k3 or --free-k3, not both"));
 }
 
 TEST(CalibrateCli, TooFewBoardsFailsWithTheDroppedViewsNamed) {

@@ -91,6 +91,12 @@ TEST(CalibrateSimCli, CalibrateAllThenCheckPassesAndAMovedSphereFails) {
   Json cam = read_json_file(calib / "camera.json");
   EXPECT_NEAR(cam["K"][0][0].get<double>(), 3008.0, 3008.0 * 0.001);
   EXPECT_EQ(cam["provenance"]["devices"]["camera"], "PAINTLAB-SIM-1");
+  // A 19 mm lens over a 640x480 sensor does not determine k3 (true 0; the free fit gives
+  // about -240 +- 100): held at 0, and the output and camera.json say so.
+  EXPECT_EQ(cam["k3"]["mode"], "auto");
+  EXPECT_TRUE(cam["k3"]["fixed"].get<bool>());
+  EXPECT_EQ(cam["dist"][4].get<double>(), 0.0);
+  EXPECT_THAT(r.out, ::testing::HasSubstr("k3 fixed at 0: the free fit gave k3 = "));
 
   r = test::run_paintlab("check --rig " + rig + " --capture", 120);
   std::printf("%s", r.out.c_str());

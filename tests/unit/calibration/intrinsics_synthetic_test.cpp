@@ -283,3 +283,82 @@ TEST(CameraModelTest, UndistortInvertsDistortAndRayInvertsProject) {
       EXPECT_LT((c.ray(c.project(P)) - P.normalized()).norm(), 1e-12);
     }
 }
+
+namespace {
+
+// Noisy corners of the twelve test poses seen by `cam`, each board `depth_scale` times
+// further away (the same image coverage for a lens with that much more focal length).
+std::vector<CornerView> noisy_views(const CameraModel& cam, const BoardSpec& board, double depth_scale,
+                                    double noise_px, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, noise_px);
+  const Vec3 half(0.5 * (board.cols - 1) * board.square_m, 0.5 * (board.rows - 1) * board.square_m, 0.0);
+  std::vector<CornerView> views;
+  for (const Rigid3& p0 : test_poses(board)) {
+    Rigid3 p = p0;
+    const Vec3 centre = p0.rotation * half + p0.translation;
+    p.translation.z() += (depth_scale - 1.0) * centre.z();
+    CornerView v{"view" + std::to_string(views.size()), true_corners(cam, board, p)};
+    for (auto& c : v.corners_px) c += Vec2(noise(rng), noise(rng));
+    views.push_back(v);
+  }
+  return views;
+}
+
+}  // namespace
+
+TEST(IntrinsicsSynthetic, AutoK3IsFixedWhereTheViewsCannotTellItAndKeptWhereTheyCan) {
+  IntrinsicsOptions o;
+  o.auto_fix_k3 = true;
+  // A long lens (5x the focal length, the same image; the simulated rig's distortion, true
+  // k3 = 0): k3 r^6 is not determined over a 9 deg field. The free fit's k3 (here -9.1e4 +-
+  // 4.0e4, 2.3 sigma) is within 3 standard deviations of 0: held at 0.
+  CameraModel narrow = test_camera();
+  narrow.K(0, 0) *= 5.0;
+  narrow.K(1, 1) *= 5.0;
+  narrow.dist = {-0.21, 0.9, 0.0004, -0.0003, 0.0};
+  const BoardSpec board = test_scene().board;
+  IntrinsicsResult free = calibrate_from_corners(noisy_views(narrow, board, 5.0, 0.1, test::seed()), board,
+                                                 narrow.width_px, narrow.height_px);
+  IntrinsicsResult a = calibrate_from_corners(noisy_views(narrow, board, 5.0, 0.1, test::seed()), board, narrow.width_px,
+                                              narrow.height_px, o);
+  std::printf("narrow lens: free k3 %.4g +- %.4g (fx %.2f, true %.2f); auto: %s (%s), fx %.2f +- %.2f\n",
+              free.camera.dist[4], free.std.dist[4], free.camera.fx(), narrow.fx(), a.k3.fixed ? "fixed" : "free",
+              a.k3.note.c_str(), a.camera.fx(), a.std.fx);
+  EXPECT_EQ(free.k3.mode, "free");
+  EXPECT_FALSE(free.k3.fixed);
+  EXPECT_LT(std::abs(free.camera.dist[4]), 3.0 * free.std.dist[4]);
+  EXPECT_EQ(a.k3.mode, "auto");
+  EXPECT_TRUE(a.k3.fixed);
+  EXPECT_EQ(a.camera.dist[4], 0.0);
+  EXPECT_EQ(a.std.dist[4], 0.0);
+  EXPECT_THAT(a.k3.free_value, test::NearRel(free.camera.dist[4], 1e-6));
+  EXPECT_THAT(a.k3.free_std, test::NearRel(free.std.dist[4], 1e-6));
+  EXPECT_THAT(a.k3.note, ::testing::HasSubstr("k3 fixed at 0"));
+  // 12 views of a small board through a long lens: the focal length to its 1-sigma (0.5 %).
+  EXPECT_NEAR(a.camera.fx(), narrow.fx(), 3.0 * a.std.fx);
+
+  // A wide lens with a strong k3 and sharp corners: determined, so kept.
+  CameraModel wide = test_camera();
+  wide.dist = {-0.30, 0.12, 0.0012, -0.0007, -2.0};
+  IntrinsicsResult w = calibrate_from_corners(noisy_views(wide, board, 1.0, 0.01, test::seed() + 1), board,
+                                              wide.width_px, wide.height_px, o);
+  std::printf("wide lens: %s, k3 %.4f +- %.4f (true %.2f)\n", w.k3.fixed ? "fixed" : "free", w.camera.dist[4], w.std.dist[4],
+              wide.dist[4]);
+  EXPECT_EQ(w.k3.mode, "auto");
+  EXPECT_FALSE(w.k3.fixed);
+  EXPECT_NEAR(w.camera.dist[4], wide.dist[4], 3.0 * w.std.dist[4]);
+  EXPECT_LT(3.0 * w.std.dist[4], std::abs(wide.dist[4]));
+  EXPECT_THAT(w.k3.note, ::testing::HasSubstr("k3 fitted"));
+
+  // camera.json says which.
+  test::TempDir dir;
+  a.save(dir / "camera.json");
+  const Json j = read_json_file(dir / "camera.json");
+  EXPECT_EQ(j["k3"]["mode"], "auto");
+  EXPECT_TRUE(j["k3"]["fixed"].get<bool>());
+  EXPECT_DOUBLE_EQ(j["k3"]["free_fit"]["k3"].get<double>(), a.k3.free_value);
+  const IntrinsicsResult back = IntrinsicsResult::load(dir / "camera.json");
+  EXPECT_TRUE(back.k3.fixed);
+  EXPECT_EQ(back.k3.note, a.k3.note);
+}

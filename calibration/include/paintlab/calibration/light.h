@@ -56,6 +56,8 @@ struct Highlight {
   Vec2 px = Vec2::Zero();       // specular pixel
   double std_px = 0.0;
   double roughness = 0.0;       // fitted lobe width m
+  double blur_sigma_px = 0.0;   // the blur the lobe model was compared with (fitted with LightOptions::fit_blur)
+  double blur_std_px = 0.0;     // its 1-sigma when fitted
   Vec3 point_cam = Vec3::Zero();   // sphere point X_s
   Vec3 normal_cam = Vec3::Zero();
   Vec3 mirror_dir = Vec3::Zero();  // unit r_s: the LED lies on X_s + t r_s
@@ -98,6 +100,17 @@ struct LightOptions {
   // Near the limb the highlight is foreshortened to a few pixels and the blur would
   // otherwise shift it (0.6 deg at a table angle of 150 deg with a 0.5 px blur).
   double blur_sigma_px = -1.0;
+  // Fit the blur with each lobe (start: blur_sigma_px or the sphere's; bounded to
+  // [0.1, max(1, 2 x start)] px). calibrate_light does this in a first pass when
+  // blur_sigma_px < 0 and common_blur is set.
+  bool fit_blur = false;
+  // calibrate_light: the blur of the highlights from the highlights themselves: each lobe is
+  // fitted with a free blur, their inverse-variance weighted mean is the optics' blur, and
+  // every lobe is fitted again with it. The silhouette's edge blur is not the same figure:
+  // it includes the pixel's box, which a renderer that shades pixels at their centres does
+  // not apply to the highlight (and a sensor does); a wrong blur moves the fitted specular
+  // points near the limb and so the arm radius (docs/calibration.md).
+  bool common_blur = true;
   double min_snr = 20.0;        // highlight peak / background noise
   double max_view_angle_deg = 78.0;  // highlights closer to the limb are not used
   double outlier_deg = 0.0;     // 0: automatic (5 x robust RMS, at least 0.02 deg)
@@ -112,6 +125,11 @@ struct LightCalibration {
   int used = 0;
   // 1-sigma of the fitted parameters.
   double arm_radius_std_m = 0.0, arm_height_std_m = 0.0, zero_std_deg = 0.0, axis_std_deg = 0.0;
+  // The blur the highlights were fitted with (Gaussian sigma, px) and where it came from:
+  // "highlights" (fitted from them, with its 1-sigma), "sphere" (the silhouette's edge blur)
+  // or "given" (LightOptions::blur_sigma_px). The live check fits highlights with it.
+  double blur_sigma_px = 0.0, blur_std_px = 0.0;
+  std::string blur_source;
   Provenance provenance;
 
   Json to_json() const;

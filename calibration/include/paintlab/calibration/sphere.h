@@ -51,6 +51,13 @@ struct SphereOptions {
   // hangs on the shading model and is left out.
   double min_step_frac = 0.5;
   double outlier_sigmas = 4.0;      // edge points further from the fitted silhouette are dropped
+  // The edge model includes the pixel's box (a pixel integrates over its square) besides the
+  // optics' Gaussian; without it the Gaussian stands for both.
+  bool pixel_box = true;
+  // The inside's sqrt(t) onset is taken from the shading of the lit disc (one figure per
+  // image, the physics of a lit Lambertian limb: limb_onset in sphere.cpp), not fitted per
+  // sector, where it would also absorb any mismatch of the blur model and move the edge.
+  bool limb_onset_from_shading = true;
   // Optional starting circle (pixels); radius 0: found by thresholding.
   Vec2 approx_centre_px = Vec2::Zero();
   double approx_radius_px = 0.0;
@@ -62,7 +69,8 @@ struct EdgePoint {
   Vec2 px = Vec2::Zero();       // sub-pixel silhouette point (distorted image)
   double angle_rad = 0.0;       // polar angle around the image centre of the sphere
   double std_px = 0.0;          // 1-sigma from the profile fit
-  double sigma_px = 0.0;        // Gaussian edge blur
+  double sigma_px = 0.0;        // edge blur as one Gaussian (optics and pixel box)
+  double psf_sigma_px = 0.0;    // the optics' part (with SphereOptions::pixel_box; else = sigma_px)
   double step = 0.0;            // contrast of the edge step (inside at the edge - background)
   double residual_px = 0.0;     // distance to the fitted silhouette (signed, + outside)
   bool used = false;
@@ -83,6 +91,7 @@ struct SphereFit {
   double ellipse_angle_deg = 0.0;
   double edge_sigma_px = std::numeric_limits<double>::quiet_NaN();  // median blur of strong edges
   double edge_width_px = std::numeric_limits<double>::quiet_NaN();  // 10-90 % rise = 2.563 sigma
+  double psf_sigma_px = std::numeric_limits<double>::quiet_NaN();   // median optics blur without the pixel box
   int edges_used = 0;
   int edges_total = 0;
   double coverage = 0.0;              // fraction of the outline with used edge points
