@@ -113,6 +113,9 @@ struct LightOptions {
   bool common_blur = true;
   double min_snr = 20.0;        // highlight peak / background noise
   double max_view_angle_deg = 78.0;  // highlights closer to the limb are not used
+  // Nor highlights fewer pixels inside the silhouette than this; 0: the blur kernel's width
+  // (2 ceil(3 sigma) + 1: 5 px at 0.5 px, 7 px while the blur is fitted).
+  double min_limb_distance_px = 0.0;
   double outlier_deg = 0.0;     // 0: automatic (5 x robust RMS, at least 0.02 deg)
   void check() const;
 };
