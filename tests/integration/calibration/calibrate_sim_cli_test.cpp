@@ -97,6 +97,12 @@ TEST(CalibrateSimCli, CalibrateAllThenCheckPassesAndAMovedSphereFails) {
   EXPECT_TRUE(cam["k3"]["fixed"].get<bool>());
   EXPECT_EQ(cam["dist"][4].get<double>(), 0.0);
   EXPECT_THAT(r.out, ::testing::HasSubstr("k3 fixed at 0: the free fit gave k3 = "));
+  // On a sphere 100 px in radius the highlights at +-150 deg lie ~2 px inside the silhouette,
+  // where the image is the edge's, not the lobe's: left out, and said so.
+  EXPECT_THAT(r.out, ::testing::HasSubstr("not used light_angle150 (150 deg): the highlight is "));
+  EXPECT_THAT(r.out, ::testing::HasSubstr("px inside the silhouette"));
+  Json light = read_json_file(calib / "light.json");
+  EXPECT_EQ(light["highlight_blur"]["source"], "highlights");
 
   r = test::run_paintlab("check --rig " + rig + " --capture", 120);
   std::printf("%s", r.out.c_str());
