@@ -37,7 +37,8 @@ namespace {
 using detail::Int4;
 
 // e = s1 / s2 and var = s3 / s2^2 (then / gain, / gain^2) of a block of values; ok where s2 > 0
-// (elsewhere e and var are placeholders the caller replaces). Four values at a time: their
+// (where s2 = 0, no exposure had weight: the sums are divided by 1 instead, which leaves the
+// zero sums' 0, and ok = 0 marks the pixel invalid). Four values at a time: their
 // accumulators transposed into one vector per sum, then the same IEEE operations as one by one.
 template <bool kDark, bool kFlat>
 void sums_to_radiance(const Float4* acc, const float* gain, std::size_t m, float* e, float* var, int* ok) {
