@@ -26,11 +26,9 @@ fs::path binary_dir() {
   return PAINTLAB_BINARY_DIR_DEFAULT;
 }
 
-fs::path shared_data_dir() {
+fs::path data_dir() {
   if (const char* s = std::getenv("PAINTLAB_DATA_DIR")) return s;
-  for (fs::path p : {source_dir() / "../shared/data", source_dir() / "tests/data/shared"})
-    if (fs::exists(p)) return fs::canonical(p);
-  return source_dir() / "../shared/data";
+  return source_dir() / "tests/data";
 }
 
 TempDir::TempDir() {

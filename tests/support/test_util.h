@@ -15,10 +15,11 @@ namespace paintlab::test {
 std::uint64_t seed();
 
 // The source tree (PAINTLAB_SOURCE_DIR), the build tree (PAINTLAB_BINARY_DIR) and the
-// shared real data (../shared/data beside the source tree, or PAINTLAB_DATA_DIR).
+// real data the tests use, carried by the project: tests/data/<set>/ with its SOURCES.md
+// (PAINTLAB_DATA_DIR overrides).
 std::filesystem::path source_dir();
 std::filesystem::path binary_dir();
-std::filesystem::path shared_data_dir();
+std::filesystem::path data_dir();
 
 // A fresh empty folder removed when the object dies (kept if PAINTLAB_KEEP_TMP is set).
 class TempDir {

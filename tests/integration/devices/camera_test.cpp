@@ -261,7 +261,7 @@ class AravisFakeProgram : public ::testing::Test {
     try {
       fake_ = std::make_unique<test::Process>(argv);
     } catch (const std::exception&) {
-      GTEST_SKIP() << "arv-fake-gv-camera-0.8 not installed (Debian package aravis-tools)";
+      FAIL() << "cannot start arv-fake-gv-camera-0.8 (Debian package aravis-tools; scripts/setup.sh installs it)";
     }
   }
   std::unique_ptr<AravisCamera> open(AravisCameraConfig c) {

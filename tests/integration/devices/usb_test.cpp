@@ -109,7 +109,7 @@ class UsbDiscovery : public ::testing::Test {
  protected:
   void SetUp() override {
     test::Process check({"umockdev-run", "--version"});
-    if (check.wait_exit(10.0) != 0) GTEST_SKIP() << "umockdev-run not installed (Debian package umockdev)";
+    ASSERT_EQ(check.wait_exit(10.0), 0) << "umockdev-run not working (Debian package umockdev; scripts/setup.sh installs it)";
   }
 };
 

@@ -1,5 +1,5 @@
 #pragma once
-// Debevec and Malik's Memorial Church stack (../shared/data/debevec-memorial) and the
+// Debevec and Malik's Memorial Church stack (tests/data/debevec-memorial) and the
 // comparison with their own radiance map memorial.hdr: RMS of the natural-log ratio after one
 // scale per channel, over pixels that are not registration border (pure blue) in any photo.
 #include <chrono>
@@ -28,7 +28,7 @@ struct Memorial {
 };
 
 inline bool load(Memorial* m) {
-  const fs::path dir = test::shared_data_dir() / "debevec-memorial";
+  const fs::path dir = test::data_dir() / "debevec-memorial";
   if (!fs::exists(dir / "image_list.txt") || !fs::exists(dir / "memorial.hdr")) return false;
   std::ifstream in(dir / "image_list.txt");
   std::string line;

@@ -1,4 +1,4 @@
-// Real data: Debevec and Malik's Memorial Church stack (../shared/data/debevec-memorial).
+// Real data: Debevec and Malik's Memorial Church stack (tests/data/debevec-memorial).
 // Recover the response, merge, and compare with their own radiance map memorial.hdr in
 // natural-log radiance after one scale per channel, over pixels that are not registration
 // border (pure blue) in any photo. OpenCV 4.6's Calibrate/Merge Robertson and Debevec are
@@ -25,7 +25,7 @@ using namespace paintlab::memorial_test;
 
 TEST(MemorialOpenCv, BeatsOpenCvInTheSameRunAgainstDebevecsRadianceMap) {
   Memorial m;
-  if (!load(&m)) GTEST_SKIP() << "debevec-memorial data not found under " << test::shared_data_dir();
+  ASSERT_TRUE(load(&m)) << "debevec-memorial data missing or unreadable under " << test::data_dir();
   ASSERT_EQ(m.files.size(), 16u);
   EXPECT_DOUBLE_EQ(m.exposures_s.front(), 32.0);
   EXPECT_DOUBLE_EQ(m.exposures_s.back(), 1.0 / 1024);

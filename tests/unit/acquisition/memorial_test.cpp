@@ -17,7 +17,7 @@ using namespace paintlab::memorial_test;
 
 TEST(Memorial, OursBeatsOpenCvsFiguresAgainstDebevecsRadianceMap) {
   Memorial m;
-  if (!load(&m)) GTEST_SKIP() << "debevec-memorial data not found under " << test::shared_data_dir();
+  ASSERT_TRUE(load(&m)) << "debevec-memorial data missing or unreadable under " << test::data_dir();
   ASSERT_EQ(m.files.size(), 16u);
   const auto frames = m.stack.frames();
   calib::ResponseOptions opt;

@@ -28,7 +28,7 @@ struct CsvRow {
 };
 
 std::vector<CsvRow> read_reference_rows() {
-  const auto path = test::shared_data_dir() / "merl-reference/merl_index_vectors.csv";
+  const auto path = test::data_dir() / "merl-reference/merl_index_vectors.csv";
   std::ifstream in(path);
   EXPECT_TRUE(in.good()) << path;
   std::vector<CsvRow> rows;

@@ -38,7 +38,7 @@ SampleBatch random_batch(std::size_t n, std::uint64_t seed, bool with_variance =
 }
 
 TEST(Binning, SampleBinMatchesTheReferenceRows) {
-  const auto path = test::shared_data_dir() / "merl-reference/merl_index_vectors.csv";
+  const auto path = test::data_dir() / "merl-reference/merl_index_vectors.csv";
   std::ifstream in(path);
   ASSERT_TRUE(in.good()) << path;
   std::string line;
