@@ -17,6 +17,8 @@
 #include <sstream>
 
 #include "calibrate_support.h"
+#include "paintlab/calibration/procedure.h"
+#include "paintlab/core/input_files.h"
 #include "cli.h"
 #include "paintlab/calibration/intrinsics.h"
 #include "paintlab/calibration/light.h"
@@ -34,11 +36,6 @@ namespace fs = std::filesystem;
 namespace paintlab::app {
 
 namespace {
-
-std::vector<CalibrateStep>& step_registry() {
-  static std::vector<CalibrateStep> steps;
-  return steps;
-}
 
 // "a,b,c" or "start:stop:step" (stop inclusive), degrees.
 std::vector<double> parse_angles(const std::string& text, const std::string& option) {
@@ -89,11 +86,12 @@ std::vector<Shot> step_images(CalibrateContext& c, const std::string& step, cons
                               double quantile) {
   std::vector<Shot> shots;
   std::vector<fs::path> paths;
-  if (!files.empty()) paths = expand_inputs(files, "--images");
-  else if (c.images_dir) paths = expand_inputs({(*c.images_dir / step).string()}, "--images");
+  if (!files.empty()) paths = expand_input_files(files, "--images", kCalibrationImageExtensions);
+  else if (c.images_dir)
+    paths = expand_input_files({(*c.images_dir / step).string()}, "--images", kCalibrationImageExtensions);
   if (!paths.empty()) {
-    const acq::HdrCalibration hdr = load_radiometry(c.rig);
-    for (const auto& p : paths) shots.push_back(load_shot(p, hdr));
+    acq::Linearizer linearizer(load_radiometry(c.rig));
+    for (const auto& p : paths) shots.push_back(acq::load_shot(p, linearizer));
     return shots;
   }
   if (!c.session) throw UsageError("calibrate " + step + ": give --images or --capture");
@@ -128,8 +126,9 @@ void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig)
   std::vector<calib::BoardImage> images;
   std::vector<fs::path> inputs;
   std::vector<fs::path> paths;
-  if (!a.images.empty()) paths = expand_inputs(a.images, "--images");
-  else if (c.images_dir) paths = expand_inputs({(*c.images_dir / "intrinsics").string()}, "--images");
+  if (!a.images.empty()) paths = expand_input_files(a.images, "--images", kCalibrationImageExtensions);
+  else if (c.images_dir)
+    paths = expand_input_files({(*c.images_dir / "intrinsics").string()}, "--images", kCalibrationImageExtensions);
   if (!paths.empty()) {
     for (const auto& p : paths) {
       RawImage raw = read_raw_image(p);
@@ -270,16 +269,7 @@ struct StepArgs {
 
 }  // namespace
 
-void register_calibration_step(CalibrateStep step) {
-  auto& s = step_registry();
-  s.erase(std::remove_if(s.begin(), s.end(), [&](const CalibrateStep& x) { return x.name == step.name; }), s.end());
-  s.push_back(std::move(step));
-  std::stable_sort(s.begin(), s.end(), [](const CalibrateStep& a, const CalibrateStep& b) { return a.order < b.order; });
-}
-
-const std::vector<CalibrateStep>& calibration_steps() { return step_registry(); }
-
-void register_calibrate_commands(CLI::App& app) {
+void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunners> runners) {
   CLI::App* group = subcommand_group(app, "calibrate", "Calibrate the rig (writes the rig's calibration folder)");
 
   // Context for one command: the rig, and the devices when capturing.
@@ -299,7 +289,7 @@ void register_calibrate_commands(CLI::App& app) {
   {
     auto a = std::make_shared<IntrinsicsArgs>();
     auto common = std::make_shared<StepArgs>();
-    CLI::App* cmd = group->add_subcommand("intrinsics", "Camera intrinsics from chessboard views (writes camera.json)");
+    CLI::App* cmd = group->add_subcommand("intrinsics", calib::procedure_step("intrinsics").summary);
     cmd->add_option("--rig", common->rig, "rig.toml (writes its calib/camera.json)");
     cmd->add_option("--images", a->images, "chessboard photos or folders of them (8 or 16 bit)");
     cmd->add_flag("--capture", common->capture, "capture the views through the rig's camera");
@@ -324,34 +314,32 @@ void register_calibrate_commands(CLI::App& app) {
       run_intrinsics(c, *a, true);
       return kExitOk;
     });
-    register_calibration_step({"intrinsics", 10, [a](CalibrateContext& c) {
+    runners->by_step["intrinsics"] = [a](CalibrateContext& c) {
                                  IntrinsicsArgs args = *a;
                                  args.images.clear();
                                  args.out.clear();
                                  if (c.k3 == "fix") args.fix_k3 = true;
                                  if (c.k3 == "free") args.free_k3 = true;
                                  run_intrinsics(c, args, true);
-                               }});
+                               };
   }
 
   // --- sphere, light, scale ---
+  // Their help and default angles come from the procedure (calibration/procedure.h).
   struct Geo {
     const char* name;
-    const char* help;
-    const char* default_angles;
-    int order;
     void (*run)(CalibrateContext&, const std::vector<std::string>&, const std::string&);
   };
   const Geo geos[] = {
-      {"sphere", "Sphere centre from its silhouette, LED beside it (writes sphere.json)", "90,270", 50,
-       [](CalibrateContext& c, const std::vector<std::string>& f, const std::string& a) { run_sphere(c, f, a); }},
-      {"light", "LED positions from highlights on a glossy sphere (writes light.json)", "-150:150:10", 60, &run_light},
-      {"scale", "Absolute BRDF scale from the white reference sphere (writes scale.json)", "-40,0,40", 70, &run_scale},
+      {"sphere", [](CalibrateContext& c, const std::vector<std::string>& f, const std::string& a) { run_sphere(c, f, a); }},
+      {"light", &run_light},
+      {"scale", &run_scale},
   };
   for (const Geo& g : geos) {
+    const calib::ProcedureStep& step = calib::procedure_step(g.name);
     auto a = std::make_shared<StepArgs>();
-    a->angles = g.default_angles;
-    CLI::App* cmd = group->add_subcommand(g.name, g.help);
+    a->angles = step.angles;
+    CLI::App* cmd = group->add_subcommand(g.name, step.summary);
     cmd->add_option("--rig", a->rig, "rig.toml")->required();
     cmd->add_option("--images", a->images, "images or folders (angles and exposures in the names, see docs)");
     cmd->add_flag("--capture", a->capture, "capture through the rig's devices");
@@ -362,12 +350,13 @@ void register_calibrate_commands(CLI::App& app) {
     on_run(cmd, [a, run, context, name = std::string(g.name)] {
       if (a->images.empty() == !a->capture) throw UsageError("calibrate " + name + ": give either --images or --capture");
       std::unique_ptr<CalibSession> keep;
+      require_step_inputs(RigConfig::load(a->rig), name);  // before any device opens
       CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
       run(c, a->images, a->angles);
       return kExitOk;
     });
-    const std::string angles = g.default_angles;
-    register_calibration_step({g.name, g.order, [run, angles](CalibrateContext& c) { run(c, {}, angles); }});
+    const std::string angles = step.angles;
+    runners->by_step[g.name] = [run, angles](CalibrateContext& c) { run(c, {}, angles); };
   }
 
   // --- all ---
@@ -382,7 +371,7 @@ void register_calibrate_commands(CLI::App& app) {
     auto k3 = std::make_shared<std::pair<bool, bool>>(false, false);
     cmd->add_flag("--fix-k3", k3->first, "intrinsics: keep k3 = 0 (default: fixed when the free fit leaves it less certain than its value)");
     cmd->add_flag("--free-k3", k3->second, "intrinsics: fit k3 whatever its uncertainty");
-    on_run(cmd, [a, dir, k3, context] {
+    on_run(cmd, [a, dir, k3, context, runners] {
       if (dir->empty() == !a->capture) throw UsageError("calibrate all: give either --images DIR or --capture");
       if (k3->first && k3->second) throw UsageError("calibrate all: give --fix-k3 or --free-k3, not both");
       std::unique_ptr<CalibSession> keep;
@@ -390,9 +379,13 @@ void register_calibrate_commands(CLI::App& app) {
       if (!dir->empty()) c.images_dir = fs::path(*dir);
       if (k3->first) c.k3 = "fix";
       if (k3->second) c.k3 = "free";
-      for (const auto& step : calibration_steps()) {
+      for (const calib::ProcedureStep& step : calib::calibration_procedure()) {
+        const auto run = runners->by_step.find(step.name);
+        if (run == runners->by_step.end())
+          throw CalibrationError("calibrate all: no command runs the step '" + step.name + "'");
         say(fmt::format("== {} ==", step.name));
-        step.run(c);
+        require_step_inputs(c.rig, step.name);
+        run->second(c);
       }
       if (c.session) c.session->stage->mount(Target::Sample);
       // Steps not registered with `all` (or that write nothing) leave their file missing.

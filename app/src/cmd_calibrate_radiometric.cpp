@@ -19,6 +19,7 @@
 #include "cli.h"
 #include "paintlab/calibration/dark.h"
 #include "paintlab/calibration/flat.h"
+#include "paintlab/calibration/procedure.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/response.h"
 #include "paintlab/core/error.h"
@@ -32,6 +33,19 @@ namespace fs = std::filesystem;
 namespace paintlab::app {
 
 namespace {
+
+// The exposure at which the brightest pixels (the 99.9 % quantile) of what the camera sees
+// sit at `fill` of the range above `black` (auto exposure with a 10 % tolerance).
+double find_exposure(CalibSession& s, double gain_db, double black, double fill, double start_s) {
+  value_or_throw(s.camera().set_gain_db(gain_db));
+  acq::AutoExposureOptions o;
+  o.fill = fill;
+  o.quantile = 0.999;
+  o.black_dn = black;
+  o.tolerance = 0.1;
+  o.start_s = start_s;
+  return acq::auto_expose(s.camera(), o).exposure_s;
+}
 
 struct Common {
   StackInput input;
@@ -108,7 +122,7 @@ struct StepRun {
   }
   // Later steps of the same session linearise with what this one wrote.
   void refresh() const {
-    if (context && context->session) context->session->hdr = load_radiometry(context->rig);
+    if (context && context->session) context->session->linearizer.set_calibration(load_radiometry(context->rig));
   }
 };
 
@@ -128,10 +142,10 @@ void run_dark(const DarkArgs& a, const StepRun& run) {
     if (a.frames < 2) throw UsageError("calibrate dark: --frames must be >= 2 (read noise needs repeated frames)");
     CalibSession& s = *run.context->session;
     const auto& t = run.context->rig.plan.exposures_s;
-    present(*s.devices, LensView::Capped);
-    stack = capture_stack(*s.devices, run.context->rig.plan.gain_db, {t.front(), t.back()}, a.frames, false,
-                          run.capture_dir());
-    present(*s.devices, LensView::Scene);
+    s.stage->cover_lens(acq::LensView::Capped);
+    stack = acq::capture_stack(s.camera(), *s.devices->light, run.context->rig.plan.gain_db, {t.front(), t.back()},
+                               a.frames, false, run.capture_dir());
+    s.stage->cover_lens(acq::LensView::Scene);
   } else {
     stack = run.files(a);
   }
@@ -165,7 +179,7 @@ struct ResponseArgs : Common {
   double smoothness = -1.0;
   std::string no_data;
   int count = 16;
-  double angle_deg = 90.0;
+  double angle_deg = std::stod(calib::procedure_step("response").angles);  // the procedure's
 };
 
 void run_response(const ResponseArgs& a, const StepRun& run) {
@@ -202,8 +216,7 @@ void run_response(const ResponseArgs& a, const StepRun& run) {
     // (data up to the shoulder), 256x in all.
     value_or_throw(s.devices->light->on());
     const double black = dark ? dark->mean_bias_dn : a.black;
-    const double t_top = find_exposure(*s.devices, rig.plan.gain_db, black, kResponseTopFill, 0.999,
-                                       rig.plan.exposures_s.back());
+    const double t_top = find_exposure(s, rig.plan.gain_db, black, kResponseTopFill, rig.plan.exposures_s.back());
     const dev::ExposureRange range = value_or_throw(s.devices->camera->exposure_range());
     const double t_min = std::max(range.min_s, t_top / 32.0), t_max = std::min(range.max_s, t_top * 8.0);
     if (!(t_max > 4.0 * t_min))
@@ -214,8 +227,8 @@ void run_response(const ResponseArgs& a, const StepRun& run) {
     say(fmt::format("response: white reference at {:.3g} ms (brightest pixels at {:.0f} % of the range); bracket "
                     "{:.3g}..{:.3g} ms, {} exposures",
                     1e3 * t_top, 100.0 * kResponseTopFill, 1e3 * t_min, 1e3 * t_max, a.count));
-    stack = capture_stack(*s.devices, rig.plan.gain_db, calibration_bracket(t_min, t_max, a.count), 1, true,
-                          run.capture_dir());
+    stack = acq::capture_stack(s.camera(), *s.devices->light, rig.plan.gain_db,
+                               calibration_bracket(t_min, t_max, a.count), 1, true, run.capture_dir());
   } else {
     stack = run.files(a);
   }
@@ -271,13 +284,13 @@ void run_flat(const FlatArgs& a, const StepRun& run) {
     if (a.frames < 1) throw UsageError("calibrate flat: --frames must be >= 1");
     CalibSession& s = *run.context->session;
     const double gain_db = run.context->rig.plan.gain_db;
-    present(*s.devices, LensView::Diffuser);
+    s.stage->cover_lens(acq::LensView::Diffuser);
     value_or_throw(s.devices->light->off());
     // The brightest pixels at 60 % of the range: well clear of saturation, far above the noise.
     const double black = dark ? dark->mean_bias_dn : resp ? resp->window.black_dn : 0.0;
-    const double t = find_exposure(*s.devices, gain_db, black, 0.6, 0.999, 0.01);
-    stack = capture_stack(*s.devices, gain_db, {t}, a.frames, false, run.capture_dir());
-    present(*s.devices, LensView::Scene);
+    const double t = find_exposure(s, gain_db, black, 0.6, 0.01);
+    stack = acq::capture_stack(s.camera(), *s.devices->light, gain_db, {t}, a.frames, false, run.capture_dir());
+    s.stage->cover_lens(acq::LensView::Scene);
   } else {
     stack = run.files(a);
   }
@@ -321,8 +334,9 @@ void run_command(const Args& a, const char* step, const char* file, void (*run)(
 
 // The step of `paintlab calibrate all`: the command's defaults, the rig's file.
 template <class Args>
-CalibrateStep all_step(const char* step, const char* file, int order, void (*run)(const Args&, const StepRun&)) {
-  return {step, order, [step, file, run](CalibrateContext& c) {
+std::function<void(CalibrateContext&)> all_step(const char* step, const char* file,
+                                                void (*run)(const Args&, const StepRun&)) {
+  return [step, file, run](CalibrateContext& c) {
             const Args a;  // the defaults (the stand-alone command's options are not parsed under `all`)
             StepRun r;
             r.context = &c;
@@ -330,18 +344,17 @@ CalibrateStep all_step(const char* step, const char* file, int order, void (*run
             fs::create_directories(c.rig.calibration_dir);
             r.out = c.rig.calibration_dir / file;
             run(a, r);
-          }};
+          };
 }
 
 }  // namespace
 
-void register_calibrate_radiometric_commands(CLI::App& app) {
+void register_calibrate_radiometric_commands(CLI::App& app, CalibrationRunners& runners) {
   CLI::App* group = subcommand_group(app, "calibrate", "Calibrate the rig (writes the rig's calibration folder)");
 
   {
     auto a = std::make_shared<DarkArgs>();
-    CLI::App* cmd = group->add_subcommand(
-        "dark", "Dark frame (black level per pixel, dark current, read noise) and hot pixels (writes dark.json + dark.exr)");
+    CLI::App* cmd = group->add_subcommand("dark", calib::procedure_step("dark").summary);
     add_common(cmd, a.get(), "dark.json");
     cmd->add_option("--hot-sigma", a->hot_sigma, "hot pixel threshold in robust standard deviations")->capture_default_str();
     cmd->add_option("--frames", a->frames, "frames per exposure with --capture (at the bracket's shortest and longest)")
@@ -350,13 +363,12 @@ void register_calibrate_radiometric_commands(CLI::App& app) {
       run_command<DarkArgs>(*a, "dark", calib::kDarkFile, &run_dark);
       return 0;
     });
-    register_calibration_step(all_step<DarkArgs>("dark", calib::kDarkFile, 20, &run_dark));
+    runners.by_step["dark"] = all_step<DarkArgs>("dark", calib::kDarkFile, &run_dark);
   }
 
   {
     auto a = std::make_shared<ResponseArgs>();
-    CLI::App* cmd = group->add_subcommand(
-        "response", "Camera response curve from an exposure stack (Robertson's or Debevec's method; writes response.json)");
+    CLI::App* cmd = group->add_subcommand("response", calib::procedure_step("response").summary);
     add_common(cmd, a.get(), "response.json");
     cmd->add_option("--method", a->method, "robertson (default) or debevec (log domain; better for gamma-encoded images)");
     cmd->add_option("--dark", a->dark, "dark.json: subtract the per-pixel dark level (default with --rig: its dark.json)");
@@ -373,13 +385,12 @@ void register_calibrate_radiometric_commands(CLI::App& app) {
       run_command<ResponseArgs>(*a, "response", calib::kResponseFile, &run_response);
       return 0;
     });
-    register_calibration_step(all_step<ResponseArgs>("response", calib::kResponseFile, 30, &run_response));
+    runners.by_step["response"] = all_step<ResponseArgs>("response", calib::kResponseFile, &run_response);
   }
 
   {
     auto a = std::make_shared<FlatArgs>();
-    CLI::App* cmd = group->add_subcommand(
-        "flat", "Flat field (vignetting and pixel gain) from images of a uniform target (writes flat.json + flat.exr)");
+    CLI::App* cmd = group->add_subcommand("flat", calib::procedure_step("flat").summary);
     add_common(cmd, a.get(), "flat.json");
     cmd->add_option("--response", a->response, "response.json to linearise with (default with --rig: its response.json)");
     cmd->add_option("--dark", a->dark, "dark.json to subtract (default with --rig: its dark.json)");
@@ -389,7 +400,7 @@ void register_calibrate_radiometric_commands(CLI::App& app) {
       run_command<FlatArgs>(*a, "flat", calib::kFlatFile, &run_flat);
       return 0;
     });
-    register_calibration_step(all_step<FlatArgs>("flat", calib::kFlatFile, 40, &run_flat));
+    runners.by_step["flat"] = all_step<FlatArgs>("flat", calib::kFlatFile, &run_flat);
   }
 }
 

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "calibrate_support.h"
+#include "paintlab/core/input_files.h"
 #include "cli.h"
 #include "paintlab/calibration/check.h"
 #include "paintlab/calibration/rig_calibration.h"
@@ -130,11 +131,12 @@ void register_check_commands(CLI::App& app) {
       const fs::path dir = a->images;
       if (!geometry)
         throw CalibrationError("check --images: camera.json and sphere.json are needed to read the live images");
-      const acq::HdrCalibration hdr = load_radiometry(rig);
+      acq::Linearizer linearizer(load_radiometry(rig));
       auto shots_in = [&](const char* sub) {
         std::vector<Shot> v;
         if (fs::is_directory(dir / sub))
-          for (const auto& p : expand_inputs({(dir / sub).string()}, "--images")) v.push_back(load_shot(p, hdr));
+          for (const auto& p : expand_input_files({(dir / sub).string()}, "--images", kCalibrationImageExtensions))
+            v.push_back(acq::load_shot(p, linearizer));
         return v;
       };
       if (auto v = shots_in("sphere"); !v.empty()) fit_live_sphere(v);

@@ -7,9 +7,10 @@
 #include <fmt/format.h>
 
 #include "cli.h"
-#include "export_support.h"
+#include "extract_options.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/axf_file.h"
+#include "paintlab/fitting/export.h"
 
 namespace fs = std::filesystem;
 
@@ -24,27 +25,26 @@ struct ExportArgs {
   std::string model = "cook-torrance";
   int lobes = 3;
   std::string name;
-  std::string calib;
   std::string fit_out;
   std::uint64_t seed = 1;
-  int threads = 0;
+  ExtractArgs extract;  // --calib, --margin-px, --variance, --estimator; --threads for all
   CLI::Option* model_option = nullptr;
   CLI::Option* lobes_option = nullptr;
 };
 
 int run_export(const ExportArgs& a) {
-  ExportRequest r;
+  fit::ExportRequest r;
   for (const auto& in : a.inputs) r.inputs.emplace_back(in);
   if (!a.axf.empty()) r.axf = a.axf;
   if (!a.merl.empty()) r.merl = a.merl;
   if (!a.fit_out.empty()) r.fit_out = a.fit_out;
-  if (!a.calib.empty()) r.calib_dir = a.calib;
+  r.bin = bin_options(a.extract);
   if (a.model_option->count() > 0) r.model = a.model;
   if (a.lobes_option->count() > 0) r.lobes = a.lobes;
   r.name = a.name;
   r.seed = a.seed;
-  r.threads = a.threads;
-  const ExportResult result = export_paint(r);
+  r.threads = a.extract.threads;
+  const fit::ExportResult result = fit::export_paint(r);
   for (const auto& line : result.lines) say(line);
   return kExitOk;
 }
@@ -86,10 +86,10 @@ void register_export_commands(CLI::App& app) {
           ->capture_default_str();
   args->lobes_option = exp->add_option("--lobes", args->lobes, "Session only: lobes of the fit, 1..3")->capture_default_str();
   exp->add_option("--name", args->name, "Paint name (default: the sample name or the fit's name)");
-  exp->add_option("--calib", args->calib, "Calibration folder (default: the one of the session's rig file)");
   exp->add_option("--fit-out", args->fit_out, "Session only, with --axf: also write the fit as fit.json");
   exp->add_option("--seed", args->seed, "Seed of the fit's random starts")->capture_default_str();
-  exp->add_option("--threads", args->threads, "Worker threads, 0 = all cores")->capture_default_str();
+  exp->add_option("--threads", args->extract.threads, "Worker threads, 0 = all cores")->capture_default_str();
+  add_extract_options(exp, args->extract);
   on_run(exp, [args] { return run_export(*args); });
 
   CLI::App* axf = subcommand_group(app, "axf", "AxF-like paint files (HDF5): check and inspect");

@@ -11,7 +11,7 @@
 #include <optional>
 
 #include "cli.h"
-#include "export_support.h"
+#include "extract_options.h"
 #include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/merl.h"
 #include "paintlab/calibration/rig_calibration.h"
@@ -24,73 +24,13 @@
 #include "paintlab/fitting/extraction.h"
 #include "paintlab/fitting/hole_fill.h"
 #include "paintlab/fitting/pipeline.h"
+#include "paintlab/fitting/session_binning.h"
 
 namespace paintlab::app {
 
 namespace {
 
 namespace fs = std::filesystem;
-
-// Extraction and binning options shared by `fit` (session input) and `bin`.
-struct ExtractArgs {
-  std::string calib;  // calibration folder; default: the one of the session's rig file
-  double margin_px = 3.0;
-  std::string variance = "hdr";
-  std::string estimator = "mean";
-  int threads = 0;
-};
-
-void add_extract_options(CLI::App* sub, ExtractArgs& a) {
-  sub->add_option("--calib", a.calib,
-                  "Calibration folder (default: the calibration folder of the rig file the session names)");
-  sub->add_option("--margin-px", a.margin_px, "Sphere pixels used: at least this far inside the silhouette")
-      ->capture_default_str();
-  sub->add_option("--variance", a.variance,
-                  "Sample variance: hdr (the HDR merge's var.* channels) or local (second differences with the "
-                  "neighbouring pixels: pixel noise and flake sparkle)")
-      ->capture_default_str();
-  sub->add_option("--estimator", a.estimator, "Per-bin estimator: mean or median-of-means")->capture_default_str();
-}
-
-fit::VarianceModel variance_model_from(const std::string& s) {
-  if (s == "hdr") return fit::VarianceModel::Hdr;
-  if (s == "local") return fit::VarianceModel::Local;
-  throw UsageError(fmt::format("--variance: unknown variance model '{}' (expected hdr or local)", s));
-}
-
-struct BinnedSession {
-  fit::BinnedTable binned;
-  fit::ExtractionStats stats;
-  Json input;  // fit.json "input"
-};
-
-BinnedSession bin_session(const fs::path& dir, const ExtractArgs& a) {
-  fit::ExtractionOptions eo;
-  eo.margin_px = a.margin_px;
-  eo.variance = variance_model_from(a.variance);
-  eo.threads = a.threads;
-  eo.check();
-  fit::BinningOptions bo;
-  bo.estimator = fit::bin_estimator_from_string(a.estimator, "--estimator");
-  bo.threads = a.threads;
-  bo.check();
-  const acq::SessionDir session = acq::SessionDir::open(dir);
-  require_complete_session(session);
-  const std::vector<fit::HdrFrame> frames = session_frames(session);
-  const calib::RigCalibration cal =
-      session_calibration(session, a.calib.empty() ? std::nullopt : std::optional<fs::path>(a.calib));
-  spdlog::info("extracting and binning {} HDR images of {}", frames.size(), dir.string());
-  BinnedSession out;
-  out.binned = fit::bin_frames(frames, cal, eo, bo, &out.stats);
-  out.input = {{"kind", "session"},
-               {"path", fs::absolute(dir).lexically_normal().string()},
-               {"sample", session.manifest().sample},
-               {"positions", frames.size()},
-               {"extraction", out.stats.to_json()},
-               {"variance", fit::to_string(eo.variance)},
-               {"estimator", fit::to_string(bo.estimator)}};
-  return out;
-}
 
 std::string stats_line(const fit::ExtractionStats& s, const fit::BinnedTable& t) {
   return fmt::format("{} images: {} samples ({} invalid, {} grazing pixels skipped) in {} measured bins", s.images,
@@ -111,21 +51,15 @@ struct FitArgs {
 };
 
 int run_fit(const FitArgs& a) {
-  fit::FitRequest req;
-  req.model = fit::fit_model_from_string(a.model, "--model");
-  req.cook_torrance.lobes = a.lobes;
-  req.cook_torrance.seed = a.seed;
-  req.cook_torrance.threads = a.extract.threads;
-  req.cook_torrance.max_iterations = a.max_iterations;
-  req.cook_torrance.data.min_samples = a.min_samples;
+  fit::SharedFitOptions shared;
+  shared.lobes = a.lobes;
+  shared.seed = a.seed;
+  shared.threads = a.extract.threads;
+  shared.max_iterations = a.max_iterations;
+  shared.min_samples = a.min_samples;
+  fit::FitRequest req = fit::FitRequest::with(fit::fit_model_from_string(a.model, "--model"), "fitted", shared);
   req.cook_torrance.data.residuals = fit::fit_residuals_from_string(a.residuals, "--residuals");
-  req.cook_torrance.check();
-  req.axf_carpaint.lobes = a.lobes;
-  req.axf_carpaint.seed = a.seed;
-  req.axf_carpaint.threads = a.extract.threads;
-  req.axf_carpaint.max_iterations = a.max_iterations;
-  req.axf_carpaint.data.min_samples = a.min_samples;
-  req.axf_carpaint.check();
+  req.check();
   const fs::path input(a.input);
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
   fit::FitOutcome outcome;
@@ -134,7 +68,7 @@ int run_fit(const FitArgs& a) {
       throw UsageError(fmt::format("{}: a folder without session.json; paintlab fit reads a session folder or a "
                                    "MERL .binary table",
                                    a.input));
-    BinnedSession s = bin_session(input, a.extract);
+    const fit::BinnedSession s = fit::bin_session(acq::SessionDir::open(input), bin_options(a.extract));
     say(stats_line(s.stats, s.binned));
     req.name = fit::paint_name_from(a.name.empty() ? s.input["sample"].get<std::string>() : a.name);
     spdlog::info("fitting {}", fit::to_string(req.model));
@@ -172,7 +106,7 @@ int run_bin(const BinArgs& a) {
   const fs::path out(a.out);
   fs::path cov(a.coverage);
   if (cov.empty()) cov = out.parent_path() / (out.stem().string() + ".coverage.exr");
-  BinnedSession s = bin_session(dir, a.extract);
+  fit::BinnedSession s = fit::bin_session(acq::SessionDir::open(dir), bin_options(a.extract));
   say(stats_line(s.stats, s.binned));
   if (s.binned.table.count_in_state(brdf::BinState::Measured) == 0)
     throw DataError(fmt::format("{}: no sample landed in the table (every pixel invalid or grazing); nothing written",

@@ -4,7 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cli.h"
-#include "export_support.h"
+#include "paintlab/fitting/export.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/paint_library.h"
 
@@ -30,7 +30,7 @@ void warn_findings(const fit::PaintLibrary& lib) {
 }
 
 int run_add(const LibraryArgs& a) {
-  const fit::LibraryEntry e = library_add(a.dir, a.file, a.replace, a.name);
+  const fit::LibraryEntry e = fit::library_add(a.dir, a.file, a.replace, a.name);
   say(fmt::format("added '{}' to {} ({}, {})", e.name, a.dir, e.model, e.file));
   return kExitOk;
 }

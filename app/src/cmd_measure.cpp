@@ -11,6 +11,7 @@
 #include "measure_support.h"
 #include "paintlab/acquisition/adaptive.h"
 #include "paintlab/acquisition/hdr_merge.h"
+#include "paintlab/acquisition/measurement.h"
 #include "paintlab/acquisition/runner.h"
 #include "paintlab/acquisition/session.h"
 #include "paintlab/calibration/record.h"
@@ -20,7 +21,6 @@
 #include "paintlab/core/hash.h"
 #include "paintlab/core/progress.h"
 #include "paintlab/core/rig.h"
-#include "paintlab/core/version.h"
 #include "rig_devices.h"
 
 namespace fs = std::filesystem;
@@ -89,7 +89,7 @@ int run_measure(const MeasureArgs& a) {
 
   const bool uncalibrated = resume ? session->manifest().options.value("uncalibrated", false) : a.uncalibrated;
   const bool adaptive = resume ? session->manifest().options.value("adaptive", false) : a.adaptive;
-  MeasureSetup setup = prepare_measurement(rig, uncalibrated, adaptive);
+  acq::MeasureSetup setup = acq::prepare_measurement(rig, uncalibrated, adaptive);
 
   StopSignals signals;  // before the devices, so GpiodLight chains to it
   RigDevices devices = open_rig_devices(rig);
@@ -106,41 +106,31 @@ int run_measure(const MeasureArgs& a) {
   } else if (!a.sim_paint.empty()) {
     throw UsageError("--sim-paint applies only to a simulated rig (devices of kind \"sim\")");
   }
-  CameraPreparation cam = prepare_camera(*devices.camera, rig);
+  acq::CameraPreparation cam = acq::prepare_camera(*devices.camera, rig);
 
   if (!resume) {
-    acq::SessionManifest m;
-    m.sample = a.sample;
-    m.notes = a.notes;
-    m.operator_name = a.operator_name;
-    m.created_utc = utc_timestamp();
-    m.software_version = software_version();
-    m.rig_name = rig.name;
-    m.rig_file = rig.file.string();
-    m.rig_sha256 = sha256_file(rig.file);
-    m.angles_deg = rig.plan.angles_deg();
-    m.exposures_s = rig.plan.exposures_s;
-    m.settle_s = rig.plan.settle_s;
-    m.gain_db = cam.gain_db;
-    m.calibration = setup.calibration_checksums;
-    m.devices = {{"turntable", {{"id", devices.turntable->id()}}},
-                 {"light", {{"id", devices.light->id()}}},
-                 {"camera", {{"id", devices.camera->id()}, {"serial", devices.camera->serial()}}}};
-    m.options = {{"keep_raw", a.keep_raw}, {"adaptive", adaptive}, {"uncalibrated", uncalibrated},
-                 {"pixel_format", dev::to_string(cam.format)}};
-    if (devices.sim) m.options["sim_paint"] = sim_paint_json;
+    acq::ManifestInput in;
+    in.sample = a.sample;
+    in.notes = a.notes;
+    in.operator_name = a.operator_name;
+    in.devices = {{"turntable", {{"id", devices.turntable->id()}}},
+                  {"light", {{"id", devices.light->id()}}},
+                  {"camera", {{"id", devices.camera->id()}, {"serial", devices.camera->serial()}}}};
+    in.options = {{"keep_raw", a.keep_raw}, {"adaptive", adaptive}, {"uncalibrated", uncalibrated}};
+    if (devices.sim) in.options["sim_paint"] = sim_paint_json;
+    acq::SessionManifest m = acq::make_manifest(rig, setup, cam, in);
     session.emplace(acq::SessionDir::create(a.out, std::move(m)));
   }
 
   acq::RunnerOptions ro;
   ro.keep_raw = resume ? session->manifest().options.value("keep_raw", false) : a.keep_raw;
   ro.max_retries = a.max_retries;
-  MergeState merge(setup.hdr, dev::bit_depth(cam.format));
+  acq::BracketMerger merge(setup.hdr, dev::bit_depth(cam.format));
   acq::Runner runner(*session, {*devices.turntable, *devices.light, *devices.camera, *devices.clock},
                      merge.function());
   std::unique_ptr<acq::AdaptiveBracketing> planner;
   if (adaptive) {
-    planner = make_adaptive_planner(setup, rig, cam);
+    planner = acq::make_adaptive_planner(setup, cam);
     runner.set_planner(planner.get());
   }
   Progress progress("measure", session->position_count(), "pos");

@@ -6,7 +6,7 @@
 #include <optional>
 
 #include "cli.h"
-#include "export_support.h"
+#include "paintlab/fitting/export.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/preview.h"
 
@@ -38,8 +38,8 @@ int run_compare(const RenderArgs& a) {
   fit::CompareOptions o;
   o.tone.exposure = a.exposure;
   o.window_px = a.window_px;
-  const ComparisonResult r =
-      render_comparison_png(a.paint, a.compare, a.angle_deg, a.out,
+  const fit::ComparisonResult r =
+      fit::render_comparison_png(a.paint, a.compare, a.angle_deg, a.out,
                             a.calib.empty() ? std::nullopt : std::optional<fs::path>(a.calib), o,
                             a.hdr.empty() ? std::nullopt : std::optional<fs::path>(a.hdr));
   const fit::Comparison& c = r.comparison;
@@ -63,7 +63,7 @@ int run_render(const RenderArgs& a) {
   o.tone.exposure = a.exposure;
   if (!o.point_light && !o.environment) throw UsageError("--no-point-light needs --env ENV.exr (nothing would light the sphere)");
   const fit::Preview p =
-      render_preview_png(a.paint, a.out, o, a.hdr.empty() ? std::nullopt : std::optional<fs::path>(a.hdr));
+      fit::render_preview_png(a.paint, a.out, o, a.hdr.empty() ? std::nullopt : std::optional<fs::path>(a.hdr));
   say(fmt::format("wrote {} ({} x {} px, {}, exposure {:.4g}, peak [{:.4g}, {:.4g}, {:.4g}] at ({}, {}))", a.out,
                   o.size_px, o.size_px, a.paint, p.exposure, p.peak[0], p.peak[1], p.peak[2], p.peak_x, p.peak_y));
   return kExitOk;

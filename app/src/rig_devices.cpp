@@ -5,6 +5,7 @@
 #include "paintlab/devices/device_config.h"
 #include "paintlab/devices/gpiod_light.h"
 #include "paintlab/devices/modbus_turntable.h"
+#include "paintlab/sim/peers/sim_light.h"
 #include "paintlab/sim/peers/sim_rig.h"
 
 namespace paintlab::app {
@@ -19,23 +20,6 @@ RigDevices::~RigDevices() {
   sim.reset();
 }
 
-namespace {
-
-// SimRig owns its SimLight (the camera's frames read it); the rig's Light forwards to it.
-class ForwardingLight final : public dev::Light {
- public:
-  explicit ForwardingLight(dev::Light& l) : l_(l) {}
-  std::string id() const override { return l_.id(); }
-  Result<void> on(double level) override { return l_.on(level); }
-  Result<void> off() override { return l_.off(); }
-  Result<bool> is_on() override { return l_.is_on(); }
-  bool has_level() const override { return l_.has_level(); }
-
- private:
-  dev::Light& l_;
-};
-
-}  // namespace
 
 RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& options) {
   // Check every section before anything starts.
@@ -80,7 +64,7 @@ RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& opti
   }
   if (options.light) {
     if (rig.light.kind == "sim")
-      d.light = std::make_unique<ForwardingLight>(*d.sim->light());
+      d.light = std::make_unique<sim::SimLightHandle>(*d.sim->light());
     else
       d.light = std::make_unique<dev::GpiodLight>(dev::gpiod_config(rig.light));
   }

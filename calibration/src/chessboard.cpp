@@ -13,6 +13,7 @@
 
 #include "cv_util.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::calib {
 
@@ -279,13 +280,6 @@ SaddleResult fit_saddle(const cv::Mat& img, const Vec2& start, double theta1, do
   return out;
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
-
 }  // namespace
 
 ChessboardDetection detect_chessboard(const Image<std::uint16_t>& image, int bit_depth, const BoardSpec& board,
@@ -370,8 +364,8 @@ ChessboardDetection detect_chessboard(const Image<std::uint16_t>& image, int bit
     sigmas.push_back(f.sigma_px);
     contrasts.push_back(f.contrast);
   }
-  det.blur_sigma_px = median(sigmas);
-  det.contrast = median(contrasts);
+  det.blur_sigma_px = upper_median(sigmas);
+  det.contrast = upper_median(contrasts);
   det.found = true;
   return det;
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::calib::detail {
 
@@ -40,12 +41,8 @@ cv::Mat to_detection_u8(const cv::Mat& unit_float) {
     const float* p = unit_float.ptr<float>(y);
     for (int x = 0; x < unit_float.cols; x += 4) v.push_back(p[x]);
   }
-  auto quantile = [&v](double q) {
-    auto it = v.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
-    std::nth_element(v.begin(), it, v.end());
-    return *it;
-  };
-  float lo = quantile(0.005), hi = quantile(0.995);
+  const float lo = static_cast<float>(lower_quantile_inplace(v, 0.005));
+  float hi = static_cast<float>(lower_quantile_inplace(v, 0.995));
   if (!(hi > lo)) hi = lo + 1e-6f;
   cv::Mat out;
   unit_float.convertTo(out, CV_8U, 255.0 / (hi - lo), -255.0 * lo / (hi - lo));

@@ -10,6 +10,7 @@
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/core/robust.h"
 
 namespace fs = std::filesystem;
 
@@ -21,14 +22,6 @@ const char* kChannelSuffix[3] = {".R", ".G", ".B"};
 
 std::string plane_name(const std::string& base, int c, int channels) {
   return channels == 1 ? base : base + kChannelSuffix[c];
-}
-
-// Median of `v` (modified).
-double median_of(std::vector<float>& v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
 }
 
 }  // namespace
@@ -142,7 +135,7 @@ DarkFrame calibrate_dark(std::span<const StackFrame> frames, int bit_depth, cons
     // The mean variance (unbiased, unlike the median of few-frame estimates) over the pixels
     // whose variance is not far above the median (random-telegraph and hot pixels).
     std::vector<float> tmp = shortest_var;
-    const double med = median_of(tmp);
+    const double med = upper_median_inplace(tmp);
     double sum = 0.0;
     long long n = 0;
     for (float v : shortest_var)
@@ -162,9 +155,8 @@ DarkFrame calibrate_dark(std::span<const StackFrame> frames, int bit_depth, cons
     std::vector<float> level(P);
     for (std::size_t p = 0; p < P; ++p) level[p] = d.level(p * C + c, t_max);
     std::vector<float> tmp = level;
-    const double med = median_of(tmp);
-    for (auto& v : tmp) v = std::abs(v - static_cast<float>(med));
-    const double sigma = std::max(1.4826 * median_of(tmp), 0.5);
+    const double med = upper_median_inplace(tmp);
+    const double sigma = std::max(kMadToSigma * upper_mad_inplace(tmp, med), 0.5);
     const double limit = med + std::max(options.hot_sigma * sigma, options.hot_min_dn);
     for (std::size_t p = 0; p < P; ++p)
       if (level[p] > limit) d.hot.data()[p] = 1;
@@ -172,7 +164,7 @@ DarkFrame calibrate_dark(std::span<const StackFrame> frames, int bit_depth, cons
       std::vector<float> sd(P);
       for (std::size_t p = 0; p < P; ++p) sd[p] = std::sqrt(pooled_var[p * C + c]);
       std::vector<float> tmp2 = sd;
-      const double med_sd = std::max(median_of(tmp2), 0.5);
+      const double med_sd = std::max(upper_median_inplace(tmp2), 0.5);
       for (std::size_t p = 0; p < P; ++p)
         if (sd[p] > options.noisy_factor * med_sd) d.hot.data()[p] = 1;
     }

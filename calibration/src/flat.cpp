@@ -12,6 +12,7 @@
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/core/robust.h"
 
 namespace fs = std::filesystem;
 
@@ -22,13 +23,6 @@ namespace {
 std::string flat_plane(int c, int channels) {
   static const char* suffix[3] = {".R", ".G", ".B"};
   return channels == 1 ? std::string("flat") : std::string("flat") + suffix[c];
-}
-
-double median_of(std::vector<float>& v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
 }
 
 }  // namespace
@@ -154,8 +148,8 @@ FlatField calibrate_flat(std::span<const StackFrame> frames, int bit_depth, cons
       for (std::size_t p = 0; p < P; ++p)
         if (trusted(p) && local.ptr<float>()[p] > 0.0f) rel.push_back(g.ptr<float>()[p] / local.ptr<float>()[p] - 1.0f);
     }
-    for (auto& v : rel) v = std::abs(v);
-    out.prnu_rel = 1.4826 * median_of(rel);
+    // 0, not NaN, when no pixel is trusted.
+    out.prnu_rel = rel.empty() ? 0.0 : kMadToSigma * upper_mad_inplace(rel, 0.0);
   }
 
   // Photon transfer: var(z1 - z2) / 2 = read^2 + gain * u over pairs of frames of one exposure.

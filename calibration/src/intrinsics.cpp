@@ -11,6 +11,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::calib {
 
@@ -209,12 +210,8 @@ std::pair<double, double> view_error(const CornerView& v, const BoardSpec& board
   return {std::sqrt(ss / static_cast<double>(proj.size())), mx};
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
+// 0 for none (the result fields' "not measured"), not upper_median()'s NaN.
+double upper_median_or_zero(const std::vector<double>& v) { return v.empty() ? 0.0 : upper_median(v); }
 
 IntrinsicsResult calibrate_views(const std::vector<CornerView>& views, std::vector<ViewReport> reports,
                                  const BoardSpec& board, cv::Size size, const IntrinsicsOptions& options) {
@@ -255,7 +252,7 @@ IntrinsicsResult calibrate_views(const std::vector<CornerView>& views, std::vect
     std::vector<double> rms;
     for (std::size_t k = 0; k < used.size(); ++k)
       rms.push_back(view_error(views[used[k]], board, sol.rvecs[k], sol.tvecs[k], sol.K, sol.D).first);
-    const double med = median(rms);
+    const double med = upper_median_or_zero(rms);
     const double limit = std::max(options.outlier_factor * med, options.outlier_min_px);
     bool readmitted = false;
     for (auto it = outliers.begin(); it != outliers.end();) {
@@ -305,7 +302,7 @@ IntrinsicsResult calibrate_views(const std::vector<CornerView>& views, std::vect
   }
   res.rms_px = std::sqrt(ss / n);
   res.views_used = static_cast<int>(used.size());
-  res.blur_sigma_px = median(blur);
+  res.blur_sigma_px = upper_median_or_zero(blur);
   // Dropped but detected views: their error against the final camera with their own pose.
   for (std::size_t i = 0; i < views.size(); ++i) {
     ViewReport& r = reports[i];
@@ -425,7 +422,7 @@ IntrinsicsResult calibrate_intrinsics(const std::vector<BoardImage>& images, con
     for (double s : corner_std[i])
       if (std::isfinite(s)) stds.push_back(s);
   }
-  res.median_corner_std_px = median(stds);
+  res.median_corner_std_px = upper_median_or_zero(stds);
   return res;
 }
 

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::calib {
 
@@ -90,13 +91,6 @@ LightModel LightModel::from_json(const Json& j, const std::string& where) {
 // ---- highlight ----
 
 namespace {
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 struct SpherePixel {
   bool on_sphere = false;
@@ -223,8 +217,7 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
       int k = 0;
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) nb[k++] = img.at(x + dx, y + dy);
-      std::nth_element(nb, nb + 4, nb + 9);
-      const double s = nb[4];
+      const double s = upper_median_inplace(nb);
       // Clipped pixels (+inf, or at saturated_at) can win the peak but not the statistics.
       const double v0 = img.at(x, y), v1 = img.at(x + 1, y);
       if (std::isfinite(v0) && v0 < image.saturated_at) on_sphere.push_back(v0);
@@ -240,8 +233,8 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
     hl.reason = "the sphere is not in the image";
     return hl;
   }
-  const double level = median(on_sphere);
-  const double noise = std::max(1.4826 * median(diffs) / std::sqrt(2.0), 1e-9 * std::abs(best) + 1e-30);
+  const double level = upper_median(on_sphere);
+  const double noise = std::max(kMadToSigma * upper_median(diffs) / std::sqrt(2.0), 1e-9 * std::abs(best) + 1e-30);
   if (!((best - level) > options.min_snr * noise)) {
     hl.reason = fmt::format("no highlight on the sphere (peak {:.3g} above the sphere's median, noise {:.3g}): is "
                             "the LED on and in front of the sphere's visible side?",
@@ -592,7 +585,7 @@ LightCalibration fit_light_model(std::vector<Highlight> highlights, const Sphere
       if (use[i]) res.push_back(highlights[i].residual_deg);
     }
     double limit = options.outlier_deg;
-    if (limit <= 0) limit = std::max(0.02, 5.0 * 1.4826 * median(res));
+    if (limit <= 0) limit = std::max(0.02, 5.0 * kMadToSigma * upper_median(res));
     bool changed = false;
     for (std::size_t i = 0; i < highlights.size(); ++i) {
       if (!highlights[i].found) continue;
@@ -657,7 +650,7 @@ LightCalibration calibrate_light(const std::vector<HighlightImage>& images, cons
     }
     if (b.size() >= 3) {
       // A lobe whose blur is far off the others' (a double reflection, dust) does not count.
-      const double med = median(b);
+      const double med = upper_median(b);
       double sw = 0, swb = 0;
       for (std::size_t i = 0; i < b.size(); ++i) {
         if (std::abs(b[i] - med) > std::max(0.25 * med, 4.0 / std::sqrt(w[i]))) continue;

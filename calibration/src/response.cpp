@@ -15,6 +15,7 @@
 
 #include "paintlab/calibration/dark.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::calib {
 
@@ -897,7 +898,7 @@ void Solver::residual_statistics(ResponseCurve* out) {
     for (int d = 0; d < kRatioBins / 2 && tot.n > 0; ++d) {
       run += dev[static_cast<std::size_t>(d)];
       if (2 * run >= n + outside) {
-        out->report.linearity_error_rel = 1.4826 * (d + 0.5) / kRatioBins;
+        out->report.linearity_error_rel = kMadToSigma * (d + 0.5) / kRatioBins;
         break;
       }
     }
@@ -960,7 +961,7 @@ void Solver::residual_statistics(ResponseCurve* out) {
         if (2 * run >= tot.cnt[b]) break;
       }
       const double median_abs = (bin + 0.5) * (8.0 / kAbsBins) * rms[b];
-      sd[k] = 1.4826 * median_abs * dof;
+      sd[k] = kMadToSigma * median_abs * dof;
       known.push_back(k);
     }
     if (known.empty()) {

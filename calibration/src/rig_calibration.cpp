@@ -3,36 +3,30 @@
 #include <cmath>
 #include <limits>
 
+#include "paintlab/calibration/procedure.h"
 #include "paintlab/core/error.h"
 
 namespace paintlab::calib {
 
-namespace {
-
-const char* const kAllFiles[] = {kCameraFile, kResponseFile, kDarkFile, kFlatFile, kSphereFile, kLightFile, kScaleFile};
-
-}  // namespace
-
 const std::vector<std::string>& standard_files() {
-  static const std::vector<std::string> files(std::begin(kAllFiles), std::end(kAllFiles));
+  static const std::vector<std::string> files = [] {
+    std::vector<std::string> f;
+    for (const ProcedureStep& s : calibration_procedure()) f.push_back(s.file);
+    return f;
+  }();
   return files;
 }
 
 std::string calibrate_step_for(const std::string& file) {
-  if (file == kCameraFile) return "intrinsics";
-  if (file == kResponseFile) return "response";
-  if (file == kDarkFile) return "dark";
-  if (file == kFlatFile) return "flat";
-  if (file == kSphereFile) return "sphere";
-  if (file == kLightFile) return "light";
-  if (file == kScaleFile) return "scale";
+  for (const ProcedureStep& s : calibration_procedure())
+    if (s.file == file) return s.name;
   return "all";
 }
 
 RigCalibration RigCalibration::load(const std::filesystem::path& dir) {
   RigCalibration c;
   c.dir_ = dir;
-  for (const char* name : kAllFiles) {
+  for (const std::string& name : standard_files()) {
     CalibrationFile f;
     f.name = name;
     f.path = dir / name;

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::calib {
 
@@ -22,13 +23,6 @@ struct Sample {
   double log_cos_alpha;
   int image;
 };
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 }  // namespace
 
@@ -95,10 +89,8 @@ ScaleCalibration calibrate_scale(const std::vector<ReferenceImage>& images, cons
   // Robust line fit: a median-based outlier cut (hot pixels, dust), then least squares.
   std::vector<double> lr;
   for (const auto& s : samples) lr.push_back(s.log_ratio);
-  const double med = median(lr);
-  std::vector<double> dev;
-  for (double v : lr) dev.push_back(std::abs(v - med));
-  const double cut = 6.0 * 1.4826 * std::max(median(dev), 1e-6);
+  const double med = upper_median(lr);
+  const double cut = 6.0 * kMadToSigma * std::max(upper_mad(lr, med), 1e-6);
   double n_exp = options.fit_profile ? 0.0 : options.profile_exponent;
   double log_s = med;
   double var_res = 0, sxx = 0;

@@ -11,6 +11,7 @@
 #include <random>
 
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::calib {
 
@@ -159,13 +160,6 @@ struct SectorEdge {
   double e = 0, std = 0, sigma = 0, psf_sigma = 0, step = 0, strength = 0;
 };
 
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
-
 SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v, double r0, double phi,
                       const SphereOptions& o, std::optional<double> c1_fixed = std::nullopt) {
   SectorEdge out;
@@ -178,7 +172,7 @@ SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v
     if (r[i] < r0 - 1.0 && r[i] > r0 - 4.0) inside.push_back(v[i]);
   }
   if (outside.size() < 4 || inside.size() < 4) return out;
-  const double b0 = median(outside), c00 = median(inside);
+  const double b0 = upper_median(outside), c00 = upper_median(inside);
   double e0 = r0;
   {
     // The best sharp step between the two levels.
@@ -300,12 +294,7 @@ bool coarse_circle(const ImageF& img, Vec2* centre, double* radius) {
   std::vector<float> sample;
   for (int y = 0; y < m.rows; y += 2)
     for (int x = 0; x < m.cols; x += 2) sample.push_back(m.at<float>(y, x));
-  auto q = [&](double f) {
-    auto it = sample.begin() + static_cast<std::ptrdiff_t>(f * static_cast<double>(sample.size() - 1));
-    std::nth_element(sample.begin(), it, sample.end());
-    return static_cast<double>(*it);
-  };
-  const double lo = q(0.05), hi = q(0.999);
+  const double lo = lower_quantile_inplace(sample, 0.05), hi = lower_quantile_inplace(sample, 0.999);
   if (!(hi > lo)) return false;
   cv::Mat mask = m > static_cast<float>(lo + 0.12 * (hi - lo));
   cv::Mat labels, stats, centroids;
@@ -656,7 +645,7 @@ SphereFit fit_sphere(const std::vector<SphereImage>& images, const CameraModel& 
         pts[i].residual_px = (angle_between(camera.ray(pts[i].px), cone->d) - cone->alpha) * f;
         absres.push_back(std::abs(pts[i].residual_px));
       }
-      const double robust = std::max(1.4826 * median(absres), 0.01);
+      const double robust = std::max(kMadToSigma * upper_median(absres), 0.01);
       for (auto& p : pts) p.used = std::abs(p.residual_px) <= options.outlier_sigmas * robust;
     }
     return true;
@@ -738,7 +727,7 @@ SphereFit fit_sphere(const std::vector<SphereImage>& images, const CameraModel& 
     if (e.used) max_step = std::max(max_step, std::abs(e.step));
   for (const auto& e : edges)
     if (e.used && std::abs(e.step) >= 0.5 * max_step) sig_strong.push_back(e.sigma_px);
-  fit.edge_sigma_px = median(sig_strong.size() >= 8 ? sig_strong : sig_all);
+  fit.edge_sigma_px = upper_median(sig_strong.size() >= 8 ? sig_strong : sig_all);
   {
     std::vector<double> psf_strong, psf_all;
     for (const auto& e : edges) {
@@ -746,7 +735,7 @@ SphereFit fit_sphere(const std::vector<SphereImage>& images, const CameraModel& 
       psf_all.push_back(e.psf_sigma_px);
       if (std::abs(e.step) >= 0.5 * max_step) psf_strong.push_back(e.psf_sigma_px);
     }
-    fit.psf_sigma_px = median(psf_strong.size() >= 8 ? psf_strong : psf_all);
+    fit.psf_sigma_px = upper_median(psf_strong.size() >= 8 ? psf_strong : psf_all);
   }
   fit.edge_width_px = 2.5631 * fit.edge_sigma_px;
   // Coverage: fraction of 5-degree bins around the outline with a used point.

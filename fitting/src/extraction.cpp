@@ -39,6 +39,12 @@ const char* to_string(VarianceModel v) {
   return "?";
 }
 
+VarianceModel variance_model_from_string(std::string_view s, std::string_view where) {
+  if (s == "hdr") return VarianceModel::Hdr;
+  if (s == "local") return VarianceModel::Local;
+  throw DataError(fmt::format("{}: unknown variance model '{}' (expected hdr or local)", where, s));
+}
+
 void ExtractionStats::add(const ExtractionStats& o) {
   images += o.images;
   sphere_pixels += o.sphere_pixels;

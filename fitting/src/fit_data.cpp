@@ -6,6 +6,7 @@
 
 #include "fit_util.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::fit {
 
@@ -188,8 +189,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& opt
           region_median[r][c] = 0.0;
           continue;
         }
-        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-        region_median[r][c] = v[v.size() / 2];
+        region_median[r][c] = upper_median_inplace(v);
       }
   }
 

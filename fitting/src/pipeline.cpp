@@ -23,6 +23,32 @@ FitModel fit_model_from_string(std::string_view s, std::string_view where) {
   throw DataError(fmt::format("{}: unknown model '{}' (expected cook-torrance or axf-carpaint)", where, s));
 }
 
+void FitRequest::set_shared(const SharedFitOptions& s) {
+  cook_torrance.lobes = s.lobes;
+  cook_torrance.seed = s.seed;
+  cook_torrance.threads = s.threads;
+  cook_torrance.max_iterations = s.max_iterations;
+  cook_torrance.data.min_samples = s.min_samples;
+  axf_carpaint.lobes = s.lobes;
+  axf_carpaint.seed = s.seed;
+  axf_carpaint.threads = s.threads;
+  axf_carpaint.max_iterations = s.max_iterations;
+  axf_carpaint.data.min_samples = s.min_samples;
+}
+
+FitRequest FitRequest::with(FitModel model, std::string name, const SharedFitOptions& shared) {
+  FitRequest r;
+  r.model = model;
+  r.name = std::move(name);
+  r.set_shared(shared);
+  return r;
+}
+
+void FitRequest::check() const {
+  cook_torrance.check();
+  axf_carpaint.check();
+}
+
 std::string paint_name_from(std::string_view text) {
   std::string out;
   for (char ch : text) {

@@ -10,6 +10,7 @@
 
 #include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
+#include "paintlab/core/robust.h"
 
 namespace paintlab::fit {
 
@@ -80,9 +81,8 @@ double auto_exposure(const ImageF& rgb, const std::vector<std::uint8_t>& mask, d
       if (std::isfinite(m)) v.push_back(m);
     }
   if (v.empty()) return 1.0;
-  const auto k = static_cast<std::size_t>(std::clamp(percentile / 100.0, 0.0, 1.0) * static_cast<double>(v.size() - 1));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k] > 0 ? 1.0 / v[k] : 1.0;
+  const double top = lower_quantile_inplace(v, std::clamp(percentile / 100.0, 0.0, 1.0));
+  return top > 0 ? 1.0 / top : 1.0;
 }
 
 ImageU8 tone_map(const ImageF& rgb, double exposure) {

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "paintlab/core/error.h"
+#include "paintlab/core/robust.h"
 #include "paintlab/fitting/preview.h"
 
 namespace paintlab::fit {
@@ -142,9 +143,7 @@ Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration
     double ss = 0;
     for (double l : log_ratio) ss += l * l;
     out.log_rms = std::sqrt(ss / static_cast<double>(log_ratio.size()));
-    auto mid = log_ratio.begin() + static_cast<std::ptrdiff_t>(log_ratio.size() / 2);
-    std::nth_element(log_ratio.begin(), mid, log_ratio.end());
-    out.median_ratio = std::exp(*mid);
+    out.median_ratio = std::exp(upper_median_inplace(log_ratio));
   }
 
   const ImageU8 a = tone_map(out.measured, out.exposure), b = tone_map(out.model, out.exposure);

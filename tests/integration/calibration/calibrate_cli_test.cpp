@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "paintlab/core/json.h"
+#include "sim_rigs.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -14,7 +15,7 @@ const fs::path kPhotos = "/usr/share/doc/opencv-doc/examples/data";
 }
 
 TEST(CalibrateCli, IntrinsicsOnPhotosAloneWritesCameraJson) {
-  if (!fs::exists(kPhotos / "left01.jpg")) GTEST_SKIP() << "opencv-doc sample photos not installed";
+  ASSERT_TRUE(fs::exists(kPhotos / "left01.jpg")) << "opencv-doc sample photos missing under " << kPhotos << " (scripts/setup.sh installs opencv-doc)";
   test::TempDir dir;
   std::string files;
   for (int i = 1; i <= 14; ++i) {
@@ -56,7 +57,7 @@ TEST(CalibrateCli, UsageErrorsExitTwoAndSayWhat) {
 }
 
 TEST(CalibrateCli, TooFewBoardsFailsWithTheDroppedViewsNamed) {
-  if (!fs::exists(kPhotos / "left01.jpg")) GTEST_SKIP() << "opencv-doc sample photos not installed";
+  ASSERT_TRUE(fs::exists(kPhotos / "left01.jpg")) << "opencv-doc sample photos missing under " << kPhotos << " (scripts/setup.sh installs opencv-doc)";
   test::TempDir dir;
   // Two photos and one that shows no chessboard (OpenCV's left.jpg is not a 9x6 board view).
   auto r = test::run_paintlab("calibrate intrinsics --images " + (kPhotos / "left01.jpg").string() + " " +
@@ -85,4 +86,23 @@ TEST(CheckCli, EmptyCalibrationFolderFailsWithTheCommandsToRunAndWritesCheckJson
   EXPECT_EQ(r.exit_code, 1);
   Json printed = Json::parse(r.out);
   EXPECT_FALSE(printed["passed"].get<bool>());
+}
+
+// A step whose prerequisites are missing stops before any device opens and names the files
+// and the steps that make them (the procedure table, calibration/procedure.h).
+TEST(CalibrateCli, AStepWithoutWhatItNeedsNamesTheFilesAndTheSteps) {
+  test::TempDir dir;
+  test::write_text(dir / "rig.toml", test::small_sim_rig());
+  fs::create_directories(dir / "shots");
+  auto r = test::run_paintlab("calibrate light --rig " + (dir / "rig.toml").string() + " --images " +
+                              (dir / "shots").string());
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("calibrate light needs what the calibration folder lacks"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("camera.json: run `paintlab calibrate intrinsics --rig"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("sphere.json: run `paintlab calibrate sphere --rig"));
+  EXPECT_FALSE(fs::exists(dir / "calib" / "light.json"));
+  // The help of each step comes from the same table.
+  r = test::run_paintlab("calibrate scale --help");
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_THAT(r.out, ::testing::HasSubstr("Absolute BRDF scale from the white reference sphere"));
 }

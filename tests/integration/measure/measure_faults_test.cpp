@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "measure_support.h"
+#include "paintlab/acquisition/measurement.h"
 #include "paintlab/acquisition/runner.h"
 #include "paintlab/acquisition/session.h"
 #include "paintlab/core/image_io.h"
@@ -18,7 +18,7 @@
 #include "paintlab/sim/peers/sim_light.h"
 #include "paintlab/sim/peers/sim_rig.h"
 #include "paintlab/sim/peers/turntable_server.h"
-#include "rig_devices.h"
+#include "sim_devices.h"
 #include "sim_rigs.h"
 #include "test_util.h"
 
@@ -34,9 +34,9 @@ class MeasureFaults : public ::testing::Test {
   void SetUp() override {
     test::write_text(dir_ / "rig.toml", test::small_sim_rig(kPositions, 15.0, 3));
     rig_ = RigConfig::load(dir_ / "rig.toml");
-    devices_ = app::open_rig_devices(rig_);
+    devices_ = test::open_sim_devices(rig_);
     ASSERT_TRUE(devices_.sim);
-    camera_ = app::prepare_camera(*devices_.camera, rig_);
+    camera_ = acq::prepare_camera(*devices_.camera, rig_);
   }
 
   acq::SessionDir create_session(const std::string& name) {
@@ -54,8 +54,8 @@ class MeasureFaults : public ::testing::Test {
     acq::RunnerOptions o;
     o.max_retries = max_retries;
     o.retry_backoff_s = 0.01;
-    app::MergeState merge(acq::HdrCalibration{}, dev::bit_depth(camera_.format));
-    acq::Runner runner(session, {*devices_.turntable, *devices_.light, *devices_.camera, *devices_.clock},
+    acq::BracketMerger merge(acq::HdrCalibration{}, dev::bit_depth(camera_.format));
+    acq::Runner runner(session, {*devices_.turntable, *devices_.light, *devices_.camera, devices_.clock()},
                        merge.function(), o);
     std::atomic<bool> stop{false};
     return runner.run(stop);
@@ -65,8 +65,8 @@ class MeasureFaults : public ::testing::Test {
 
   test::TempDir dir_;
   RigConfig rig_;
-  app::RigDevices devices_;
-  app::CameraPreparation camera_;
+  test::SimDevices devices_;
+  acq::CameraPreparation camera_;
 };
 
 }  // namespace
@@ -155,9 +155,9 @@ TEST_F(MeasureFaults, CameraGoneStopsSafelyAndTheSessionResumesWhenItIsBack) {
   EXPECT_FALSE(devices_.sim->light()->emitting());
   EXPECT_EQ(journal_lines(s), 0);
   // Plugged back in: `paintlab measure --resume` is a new process with new connections.
-  devices_ = app::RigDevices();  // first close everything (the port lock is per camera)
-  devices_ = app::open_rig_devices(rig_);
-  camera_ = app::prepare_camera(*devices_.camera, rig_);
+  devices_ = test::SimDevices();  // first close everything (the port lock is per camera)
+  devices_ = test::open_sim_devices(rig_);
+  camera_ = acq::prepare_camera(*devices_.camera, rig_);
   acq::SessionDir again = acq::SessionDir::open(dir_ / "camera-gone");
   acq::RunSummary r2 = run(again);
   EXPECT_TRUE(r2.complete) << r2.stop_reason;
@@ -187,7 +187,7 @@ TEST_F(MeasureFaults, MergedRadianceMatchesTheSimulatorsTruthWithinTheNoise) {
     return merger.merge(stack).image;
   };
   acq::RunnerOptions o;
-  acq::Runner runner(s, {*devices_.turntable, *devices_.light, *devices_.camera, *devices_.clock}, merge, o);
+  acq::Runner runner(s, {*devices_.turntable, *devices_.light, *devices_.camera, devices_.clock()}, merge, o);
   std::atomic<bool> stop{false};
   ASSERT_TRUE(runner.run(stop).complete);
 

@@ -16,6 +16,7 @@
 #include "paintlab/core/error.h"
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/hash.h"
+#include "fake_rig.h"
 #include "test_util.h"
 
 using namespace paintlab;
@@ -25,128 +26,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-class TestClock final : public Clock {
- public:
-  double now_s() const override { return t_; }
-  void sleep_s(double s) override {
-    if (s > 0) t_ += s;
-  }
-
- private:
-  double t_ = 1000.0;
-};
-
-// A table that moves at a constant speed on the test clock.
-class TestTable final : public dev::Turntable {
- public:
-  explicit TestTable(Clock& c) : clock_(c) {}
-  std::string id() const override { return "turntable test"; }
-  Result<void> home() override { return move_to(0.0); }
-  Result<void> move_to(double a) override {
-    if (fail_moves > 0) {
-      --fail_moves;
-      return device_failure(id(), "timeout (register 0x005C)", true);
-    }
-    from_ = position();
-    target_ = a;
-    t0_ = clock_.now_s();
-    return {};
-  }
-  Result<double> angle_deg() override { return position(); }
-  Result<dev::TurntableStatus> status() override {
-    dev::TurntableStatus s;
-    s.ready = true;
-    s.moving = position() != target_;
-    s.in_position = !s.moving;
-    s.homed = true;
-    s.angle_deg = position();
-    return s;
-  }
-  Result<double> wait_settled(double) override { return position(); }
-  Result<void> stop() override {
-    target_ = position();
-    from_ = target_;
-    ++stops;
-    return {};
-  }
-  Result<void> reset_alarm() override { return {}; }
-  double move_time_s(double a, double b) const override { return std::abs(b - a) / speed; }
-
-  int fail_moves = 0;
-  int stops = 0;
-  double speed = 30.0;
-
- private:
-  double position() const {
-    double d = target_ - from_;
-    double moved = speed * (clock_.now_s() - t0_);
-    if (moved >= std::abs(d)) return target_;
-    return from_ + std::copysign(moved, d);
-  }
-  Clock& clock_;
-  double from_ = 0, target_ = 0, t0_ = 0;
-};
-
-class TestLight final : public dev::Light {
- public:
-  std::string id() const override { return "light test"; }
-  Result<void> on(double) override {
-    if (!stuck) state = true;
-    ++switch_ons;
-    return {};
-  }
-  Result<void> off() override {
-    if (!stuck) state = false;
-    return {};
-  }
-  Result<bool> is_on() override { return state; }
-  bool has_level() const override { return false; }
-  bool state = false;
-  bool stuck = false;
-  int switch_ons = 0;
-};
-
-class TestCamera final : public dev::Camera {
- public:
-  TestCamera(Clock& c, TestLight& l) : clock_(c), light_(l) {}
-  std::string id() const override { return "camera test"; }
-  std::string serial() const override { return "TEST-1"; }
-  Result<dev::ExposureRange> exposure_range() override { return dev::ExposureRange{1e-5, 1.0}; }
-  Result<double> set_exposure(double s) override {
-    exposure_ = std::round(s / 1e-5) * 1e-5;  // applied in 10 us increments
-    return exposure_;
-  }
-  Result<double> set_gain_db(double g) override { return g; }
-  Result<void> set_pixel_format(dev::PixelFormat) override { return {}; }
-  Result<dev::PixelFormat> pixel_format() override { return dev::PixelFormat::Mono16; }
-  double readout_s() const override { return 0.02; }
-  Result<dev::Frame> capture(double) override {
-    if (on_capture) on_capture(captures);
-    ++captures;
-    if (gone) return device_failure(id(), "camera disappeared", false);
-    if (lose_frames > 0) {
-      --lose_frames;
-      clock_.sleep_s(exposure_ + readout_s());
-      return device_failure(id(), "frame incomplete (missing packets)", true);
-    }
-    clock_.sleep_s(exposure_ + readout_s());
-    dev::Frame f;
-    f.pixels = Image<std::uint16_t>(8, 6, 1, static_cast<std::uint16_t>(light_.state ? 100 + exposure_ * 1e5 : 5));
-    f.meta.exposure_s = exposure_;
-    f.meta.frame_id = 65400 + captures;
-    f.meta.timestamp_ns = static_cast<std::uint64_t>(clock_.now_s() * 1e9);
-    return f;
-  }
-  std::function<void(int)> on_capture;
-  int captures = 0;
-  int lose_frames = 0;
-  bool gone = false;
-
- private:
-  Clock& clock_;
-  TestLight& light_;
-  double exposure_ = 1e-3;
-};
+using TestClock = test::FakeClock;
+using TestTable = test::FakeTable;
+using TestLight = test::FakeLight;
+using TestCamera = test::FakeCamera;
 
 ExrImage merge_mean(const std::vector<dev::Frame>& frames) {
   ExrImage img;

@@ -21,7 +21,8 @@
 #include "paintlab/core/version.h"
 #include "paintlab/fitting/axf_file.h"
 #include "paintlab/sim/paint.h"
-#include "export_support.h"
+#include "paintlab/acquisition/session_reader.h"
+#include "paintlab/fitting/export.h"
 #include "sim_session.h"
 #include "test_util.h"
 
@@ -392,7 +393,7 @@ TEST(PreviewCli, ExportASessionAndCompareWithIt) {
   EXPECT_FALSE(fs::exists(tmp / "x.h5"));
 }
 
-// The functions `paintlab demo` calls (app/src/export_support.h), on one simulated session:
+// The functions `paintlab demo` calls (fitting/export.h), on one simulated session:
 // export (bin once, fit, AxF-like + MERL + fit.json), an AxF-like file from fits in memory,
 // library add, preview, comparison.
 TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
@@ -408,15 +409,15 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
   test::TempDir tmp;
   const fs::path session = make_session_folder(*sim, tmp / "session");
 
-  app::ExportRequest r;
+  fit::ExportRequest r;
   r.inputs = {session};
   r.axf = tmp / "panel.axf.h5";
   r.merl = tmp / "panel.binary";
   r.fit_out = tmp / "fit.json";
-  r.calib_dir = sim->calibration_dir();
+  r.bin.calib_dir = sim->calibration_dir();
   r.lobes = 2;
   r.threads = 2;
-  const app::ExportResult e = app::export_paint(r);
+  const fit::ExportResult e = fit::export_paint(r);
   ASSERT_TRUE(e.paint);
   ASSERT_EQ(e.fits.size(), 1u);
   EXPECT_EQ(e.lines.size(), 3u);  // fit.json, AxF-like, MERL
@@ -430,6 +431,15 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
   ASSERT_TRUE(e.paint->fit_quality);
   EXPECT_EQ(e.paint->fit_quality->log_rms, e.fits[0]["residual"]["log_rms"].get<double>());
   EXPECT_EQ(fs::file_size(*r.merl), brdf::kMerlFileBytes);
+  // The fit records the measurement as `paintlab fit` does (one bin_session for both).
+  const Json& input = e.fits[0]["input"];
+  EXPECT_EQ(input["kind"], "session");
+  EXPECT_EQ(input["positions"], 4);
+  EXPECT_EQ(input["margin_px"], 3.0);
+  EXPECT_EQ(input["variance"], "hdr");
+  EXPECT_EQ(input["estimator"], "mean");
+  EXPECT_EQ(input["session_sha256"], acq::session_sha256(session));
+  EXPECT_EQ(input["extraction"]["images"], 4);
 
   // The MERL file read as the public reference reader does (BRDFRead.cpp): int32 dims
   // 90 x 90 x 180, then all R, all G, all B doubles times 1/1500, 1.15/1500, 1.66/1500,
@@ -449,7 +459,10 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
       std::memcpy(&v, bytes.data() + sizeof dims + (c * n + i) * sizeof(double), sizeof v);
       return v * scale[c];
     };
-    const fit::BinnedTable binned = app::bin_session(acq::SessionDir::open(session), sim->calibration_dir(), 2);
+    fit::SessionBinOptions bo;
+    bo.calib_dir = sim->calibration_dir();
+    bo.extraction.threads = bo.binning.threads = 2;
+    const fit::BinnedTable binned = fit::bin_session(acq::SessionDir::open(session), bo).binned;
     const brdf::PaintSpec spec = silver();
     const auto& ct = std::get<brdf::CookTorranceParams>(spec.params);
     const brdf::CookTorrance truth(ct.kd, ct.lobes);
@@ -477,23 +490,23 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
 
   // The same fit from memory with the session's provenance and another name.
   const acq::SessionDir sd = acq::SessionDir::open(session);
-  const AxfPaint again = app::export_axf(e.fits, app::session_provenance(sd), tmp / "again.axf.h5", "again");
+  const AxfPaint again = fit::export_axf(e.fits, fit::session_provenance(sd), tmp / "again.axf.h5", "again");
   EXPECT_EQ(again.name, "again");
   EXPECT_EQ(again.cook_torrance, e.paint->cook_torrance);
   EXPECT_EQ(again.fit_quality, e.paint->fit_quality);
   EXPECT_EQ(again.provenance.session_sha256, e.paint->provenance.session_sha256);
-  EXPECT_THROW(app::export_axf({}, {}, tmp / "none.axf.h5"), UsageError);
+  EXPECT_THROW(fit::export_axf({}, {}, tmp / "none.axf.h5"), UsageError);
   EXPECT_FALSE(fs::exists(tmp / "none.axf.h5"));
 
   // From the fit.json: the provenance is the session's again, and --merl bins the session
   // the fit names into the same table, byte for byte.
-  app::ExportRequest from_fit;
+  fit::ExportRequest from_fit;
   from_fit.inputs = {*r.fit_out};
   from_fit.axf = tmp / "from-fit.axf.h5";
   from_fit.merl = tmp / "from-fit.binary";
-  from_fit.calib_dir = sim->calibration_dir();
+  from_fit.bin.calib_dir = sim->calibration_dir();
   from_fit.threads = 2;
-  const app::ExportResult ef = app::export_paint(from_fit);
+  const fit::ExportResult ef = fit::export_paint(from_fit);
   ASSERT_TRUE(ef.paint);
   EXPECT_EQ(ef.paint->cook_torrance, e.paint->cook_torrance);
   EXPECT_EQ(ef.paint->provenance.session_sha256, e.paint->provenance.session_sha256);
@@ -509,13 +522,13 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
   Json manifest = read_json_file(tmp / "partial/session.json");
   manifest["plan"]["angles_deg"].push_back(170.0);
   write_json_file(tmp / "partial/session.json", manifest);
-  app::ExportRequest partial = r;
+  fit::ExportRequest partial = r;
   partial.inputs = {tmp / "partial"};
   partial.axf = tmp / "partial.axf.h5";
   partial.merl.reset();
   partial.fit_out.reset();
   try {
-    app::export_paint(partial);
+    fit::export_paint(partial);
     ADD_FAILURE() << "an incomplete session was exported";
   } catch (const DataError& err) {
     EXPECT_THAT(err.what(), HasSubstr("1 of 5 light positions are missing (index 4)"));
@@ -524,33 +537,33 @@ TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
   EXPECT_FALSE(fs::exists(tmp / "partial.axf.h5"));
 
   // Paint files: --model / --lobes belong to a session.
-  app::ExportRequest bad;
+  fit::ExportRequest bad;
   bad.inputs = {*r.axf};
   bad.axf = tmp / "bad.axf.h5";
   bad.lobes = 1;
-  EXPECT_THROW(app::export_paint(bad), UsageError);
+  EXPECT_THROW(fit::export_paint(bad), UsageError);
   bad.lobes.reset();
   bad.merl = tmp / "bad.binary";  // an AxF-like file holds no measurement
-  EXPECT_THROW(app::export_paint(bad), UsageError);
+  EXPECT_THROW(fit::export_paint(bad), UsageError);
   EXPECT_FALSE(fs::exists(tmp / "bad.axf.h5"));
 
-  const fit::LibraryEntry le = app::library_add(tmp / "lib", *r.axf, false);
+  const fit::LibraryEntry le = fit::library_add(tmp / "lib", *r.axf, false);
   EXPECT_EQ(le.name, "panel-7");
   EXPECT_EQ(le.log_rms, e.paint->fit_quality->log_rms);
-  EXPECT_THROW(app::library_add(tmp / "lib", *r.axf, false), DataError);
-  EXPECT_NO_THROW(app::library_add(tmp / "lib", *r.axf, true));
-  EXPECT_EQ(app::library_add(tmp / "lib", tmp / "again.axf.h5", false, "panel-7b").name, "panel-7b");
+  EXPECT_THROW(fit::library_add(tmp / "lib", *r.axf, false), DataError);
+  EXPECT_NO_THROW(fit::library_add(tmp / "lib", *r.axf, true));
+  EXPECT_EQ(fit::library_add(tmp / "lib", tmp / "again.axf.h5", false, "panel-7b").name, "panel-7b");
   EXPECT_EQ(PaintLibrary::open(tmp / "lib", false).list().size(), 2u);
 
   PreviewOptions po;
   po.size_px = 64;
-  const Preview p = app::render_preview_png(*r.axf, tmp / "preview.png", po, tmp / "preview.exr");
+  const Preview p = fit::render_preview_png(*r.axf, tmp / "preview.png", po, tmp / "preview.exr");
   EXPECT_EQ(read_raw_image(tmp / "preview.png").pixels.width(), 64);
   EXPECT_EQ(read_exr(tmp / "preview.exr").width, 64);
   EXPECT_GT(p.peak.maxCoeff(), 0.0);
 
-  const app::ComparisonResult c =
-      app::render_comparison_png(*r.axf, session, 100.0, tmp / "compare.png", sim->calibration_dir());
+  const fit::ComparisonResult c =
+      fit::render_comparison_png(*r.axf, session, 100.0, tmp / "compare.png", sim->calibration_dir());
   EXPECT_EQ(c.angle_deg, 90.0);
   EXPECT_EQ(c.image, acq::SessionDir::hdr_name(2));
   EXPECT_GT(c.comparison.pixels_used, 1000u);

@@ -88,7 +88,8 @@ class RigCalibration {
   std::optional<ScaleCalibration> scale_;
 };
 
-// The standard files in calibration order: camera, response, dark, flat, sphere, light, scale.
+// The standard files in the order of the calibration procedure (procedure.h): camera, dark,
+// response, flat, sphere, light, scale.
 const std::vector<std::string>& standard_files();
 
 // The `paintlab calibrate` step that writes a standard file ("intrinsics" for camera.json).

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "paintlab/calibration/rig_calibration.h"
@@ -32,6 +33,8 @@ namespace paintlab::fit {
 // variance where a neighbour is missing; Hdr = the HDR merge's variance channel alone.
 enum class VarianceModel { Local, Hdr };
 const char* to_string(VarianceModel v);
+// "local" or "hdr"; DataError naming `where` (the flag or file field) for other names.
+VarianceModel variance_model_from_string(std::string_view s, std::string_view where);
 
 struct ExtractionOptions {
   double margin_px = 3.0;       // distance from the silhouette (pixels), >= 0

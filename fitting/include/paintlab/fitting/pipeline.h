@@ -20,11 +20,27 @@ const char* to_string(FitModel m);  // "cook-torrance", "axf-carpaint"
 // DataError naming `where` for other names.
 FitModel fit_model_from_string(std::string_view s, std::string_view where);
 
+// What the Cook-Torrance and the AxF car-paint fits share: set once, for either model.
+struct SharedFitOptions {
+  int lobes = 3;                   // Cook-Torrance lobes, or the car paint's achromatic lobes: 1..3
+  std::uint64_t seed = 1;          // of the random starts
+  int threads = 0;                 // 0 = all cores
+  int max_iterations = 100;        // of the final solve
+  std::uint32_t min_samples = 1;   // FitDataOptions::min_samples
+};
+
 struct FitRequest {
   FitModel model = FitModel::CookTorrance;
   std::string name = "fitted";  // paint name written into fit.json ([a-z0-9._-]+)
   CtFitOptions cook_torrance;
   AxfFitOptions axf_carpaint;
+
+  // A request for `model` with `shared` set in both models' options (the rest default).
+  static FitRequest with(FitModel model, std::string name, const SharedFitOptions& shared);
+  // Sets `shared` in both models' options.
+  void set_shared(const SharedFitOptions& shared);
+  // Checks the chosen model's options (DataError naming the field and the rule).
+  void check() const;
 };
 
 struct FitOutcome {

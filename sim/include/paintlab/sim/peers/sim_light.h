@@ -46,4 +46,19 @@ class SimLight final : public dev::Light {
   int trips_ = 0;
 };
 
+// A Light that forwards to a SimLight owned elsewhere (the SimRig keeps its SimLight, whose
+// state the simulated camera's frames read; the rig's devices hold this handle to it).
+class SimLightHandle final : public dev::Light {
+ public:
+  explicit SimLightHandle(dev::Light& light) : light_(light) {}
+  std::string id() const override { return light_.id(); }
+  Result<void> on(double level = 1.0) override { return light_.on(level); }
+  Result<void> off() override { return light_.off(); }
+  Result<bool> is_on() override { return light_.is_on(); }
+  bool has_level() const override { return light_.has_level(); }
+
+ private:
+  dev::Light& light_;
+};
+
 }  // namespace paintlab::sim

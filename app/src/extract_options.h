@@ -1,0 +1,24 @@
+#pragma once
+// The extraction and binning flags of the commands that bin a session (fit, bin, export).
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "paintlab/fitting/session_binning.h"
+
+namespace paintlab::app {
+
+// Extraction and binning flags of the commands that bin a session (fit, bin, export).
+struct ExtractArgs {
+  std::string calib;  // calibration folder; default: the one of the session's rig file
+  double margin_px = fit::ExtractionOptions{}.margin_px;
+  std::string variance = fit::to_string(fit::ExtractionOptions{}.variance);
+  std::string estimator = fit::to_string(fit::BinningOptions{}.estimator);
+  int threads = 0;
+};
+// Adds --calib, --margin-px, --variance and --estimator (not --threads: each command says
+// what its threads do).
+void add_extract_options(CLI::App* sub, ExtractArgs& a);
+// The options the flags give (fit::bin_session checks them); DataError naming the flag.
+fit::SessionBinOptions bin_options(const ExtractArgs& a);
+
+}  // namespace paintlab::app

@@ -1,0 +1,53 @@
+#pragma once
+// A finished session as the fits see it (docs/fitting.md "Extraction", "Binning"): its HDR
+// images, extracted with the session's calibration and binned into a MERL table, and what
+// a fit.json and an AxF-like file record about it. `paintlab fit`, `bin` and `export` all
+// bin a session through bin_session(), with the same options and the same "input" object.
+#include <filesystem>
+#include <optional>
+#include <vector>
+
+#include "paintlab/acquisition/session.h"
+#include "paintlab/core/json.h"
+#include "paintlab/fitting/axf_file.h"
+#include "paintlab/fitting/binning.h"
+#include "paintlab/fitting/extraction.h"
+
+namespace paintlab::fit {
+
+// How a session is extracted and binned.
+struct SessionBinOptions {
+  ExtractionOptions extraction;
+  BinningOptions binning;
+  // The calibration folder; default: the one of the rig file the session names.
+  std::optional<std::filesystem::path> calib_dir;
+  void check() const;  // DataError naming the first violated rule
+};
+
+struct BinnedSession {
+  BinnedTable binned;
+  ExtractionStats stats;
+  // fit.json's "input": {"kind": "session", "path", "sample", "positions", "session_sha256",
+  // "extraction" (ExtractionStats), "margin_px", "variance", "estimator"}.
+  Json input;
+};
+
+// The finished positions of a session as HDR frames (file and table angle), index order.
+// DataError when none is finished.
+std::vector<HdrFrame> session_frames(const acq::SessionDir& session);
+
+// Extracts and bins every HDR image of a complete session (acq::require_complete_session:
+// DataError naming the missing positions and `paintlab measure --resume` otherwise).
+BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOptions& options);
+
+// The options a fit.json's "input" records (margin_px, variance, estimator), on top of
+// `base`: a table binned again from the same session is the one that was fitted. Fields
+// the input does not name keep `base`'s value; a bad value is a DataError naming `where`.
+SessionBinOptions bin_options_of_input(const Json& input, SessionBinOptions base, const std::string& where);
+
+// Provenance of a paint measured in `session`: sample, measurement date, rig, calibration
+// checksums (as recorded by the session), session checksum (acq::session_sha256), source =
+// the session folder.
+AxfProvenance session_provenance(const acq::SessionDir& session);
+
+}  // namespace paintlab::fit

@@ -1,0 +1,276 @@
+#include "paintlab/fitting/export.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "paintlab/brdf/paint.h"
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/core/error.h"
+#include "paintlab/core/geometry.h"
+#include "paintlab/core/hash.h"
+#include "paintlab/core/image_io.h"
+#include "paintlab/core/json.h"
+#include "paintlab/core/log.h"
+#include "paintlab/core/rig.h"
+#include "paintlab/core/version.h"
+#include "paintlab/acquisition/session_reader.h"
+#include "paintlab/fitting/hole_fill.h"
+
+namespace fs = std::filesystem;
+
+namespace paintlab::fit {
+
+namespace {
+std::string lower_extension(const fs::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return e;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::vector<FitModel> models_of(const std::string& s) {
+  // The AxF car paint first: it is the paint of the file (model axf-carpaint), the
+  // Cook-Torrance fit rides along in /cook_torrance.
+  if (s == "both") return {FitModel::AxfCarPaint, FitModel::CookTorrance};
+  return {fit_model_from_string(s, "--model")};
+}
+
+std::string axf_line(const fs::path& file, const AxfPaint& p) {
+  std::string quality;
+  if (p.fit_quality)
+    quality = fmt::format(", log RMS {:.4f} over {} bins", p.fit_quality->log_rms, p.fit_quality->bins_used);
+  return fmt::format("wrote {} (AxF-like paint '{}', model {}{}{})", file.string(), p.name, p.model,
+                     p.carpaint && p.cook_torrance ? " + cook-torrance" : "", quality);
+}
+
+AxfPaint paint_of_fits(const std::vector<Json>& fits) {
+  if (fits.empty()) throw UsageError("export_axf: no fit given");
+  std::optional<AxfPaint> paint;
+  for (std::size_t i = 0; i < fits.size(); ++i) {
+    const std::string model = fits[i].is_object() ? fits[i].value("model", std::string("?")) : std::string("?");
+    AxfPaint p = axf_from_fit_json(fits[i], fmt::format("the {} fit", model));
+    paint = paint ? merge_axf(std::move(*paint), p) : std::move(p);
+  }
+  return std::move(*paint);
+}
+
+SessionBinOptions with_threads(SessionBinOptions o, int threads) {
+  o.extraction.threads = threads;
+  o.binning.threads = threads;
+  return o;
+}
+
+// Binning + fitting of a session (export_paint's session branch).
+void export_session(const ExportRequest& r, ExportResult& result) {
+  if (r.inputs.size() != 1) throw UsageError("a session is exported alone (one INPUT)");
+  const std::vector<FitModel> models = models_of(r.model.value_or("cook-torrance"));
+  if (r.fit_out && models.size() > 1)
+    throw UsageError("--fit-out writes one fit: choose --model cook-torrance or axf-carpaint");
+  if (r.fit_out && !r.axf) throw UsageError("--fit-out comes with --axf (the fit is made for the AxF-like file)");
+  const fs::path& dir = r.inputs[0];
+  const acq::SessionDir session = acq::SessionDir::open(dir);
+
+  auto t0 = std::chrono::steady_clock::now();
+  BinnedSession s = bin_session(session, with_threads(r.bin, r.threads));
+  BinnedTable& binned = s.binned;
+  result.bin_s = seconds_since(t0);
+
+  if (r.axf) {
+    t0 = std::chrono::steady_clock::now();
+    SharedFitOptions shared;
+    shared.lobes = r.lobes.value_or(3);
+    shared.seed = r.seed;
+    shared.threads = r.threads;
+    for (FitModel m : models) {
+      FitRequest req = FitRequest::with(m, r.name.empty() ? paint_name_from(session.manifest().sample) : r.name, shared);
+      req.check();
+      spdlog::info("fitting {}", to_string(m));
+      FitOutcome out =
+          fit_table(binned.table, binned.noise_variance.empty() ? nullptr : &binned.noise_variance, req, s.input);
+      result.fits.push_back(std::move(out.fit));
+    }
+    result.fit_s = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    AxfPaint paint = paint_of_fits(result.fits);
+    paint.provenance = session_provenance(session);
+    if (!r.name.empty()) paint.name = r.name;
+    write_axf_file(*r.axf, paint);  // checks the paint first: nothing written when it is wrong
+    result.paint = read_axf_file(*r.axf);  // as written (export date, software version)
+    result.lines.push_back(axf_line(*r.axf, *result.paint));
+    if (r.fit_out) {
+      write_json_file(*r.fit_out, result.fits.front());
+      result.lines.push_back(fmt::format("wrote {}", r.fit_out->string()));
+    }
+    result.write_s += seconds_since(t0);
+  }
+  if (r.merl) {
+    t0 = std::chrono::steady_clock::now();
+    result.lines.push_back(write_filled_merl(std::move(binned.table), *r.merl));
+    result.write_s += seconds_since(t0);
+  }
+}
+
+// Export of one or two paint files (export_paint's other branch).
+void export_paint_files(const ExportRequest& r, ExportResult& result) {
+  if (r.model || r.lobes || r.fit_out)
+    throw UsageError("--model, --lobes and --fit-out apply to a session; the inputs here are paint files");
+  std::optional<AxfPaint> paint;
+  std::optional<Json> fit_input;  // "input" of a fit.json: what was fitted
+  for (const auto& in : r.inputs) {
+    if (acq::is_session_dir(in)) throw UsageError(in.string() + ": a session is exported alone (one INPUT)");
+    AxfPaint p = load_any_paint(in);
+    if (lower_extension(in) == ".json") {
+      const Json j = read_json_file(in);
+      if (j.contains("input") && j["input"].is_object() && !fit_input) fit_input = j["input"];
+    }
+    paint = paint ? merge_axf(std::move(*paint), p) : std::move(p);
+  }
+  // A fit of a session: the provenance is the session's (when it is still there).
+  if (fit_input && fit_input->value("kind", "") == "session") {
+    const fs::path sp = fit_input->value("path", "");
+    if (acq::is_session_dir(sp)) {
+      const std::string source = paint->provenance.source;
+      paint->provenance = session_provenance(acq::SessionDir::open(sp));
+      paint->provenance.source = source + " (a fit of session " + sp.string() + ")";
+    } else {
+      spdlog::warn("the fitted session {} is not there: provenance without the measurement", sp.string());
+    }
+  }
+  std::optional<brdf::MerlTable> merl_table;
+  if (r.merl) {
+    const std::string kind = fit_input ? fit_input->value("kind", "") : "";
+    const fs::path path = fit_input ? fs::path(fit_input->value("path", "")) : fs::path();
+    auto t0 = std::chrono::steady_clock::now();
+    if (kind == "merl" && fs::exists(path)) {
+      merl_table = brdf::read_merl(path);
+    } else if (kind == "session" && acq::is_session_dir(path)) {
+      // Binned as the fit's table was: the margin, variance and estimator its input records.
+      const SessionBinOptions o = bin_options_of_input(*fit_input, with_threads(r.bin, r.threads), "fit.json");
+      merl_table = bin_session(acq::SessionDir::open(path), o).binned.table;
+      result.bin_s = seconds_since(t0);
+    } else {
+      throw UsageError(
+          "--merl exports measured data: give the session folder, or a fit.json whose measured input (a session "
+          "or a MERL table) still exists");
+    }
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  if (r.axf) {
+    if (!r.name.empty()) paint->name = r.name;
+    write_axf_file(*r.axf, *paint);
+    result.paint = read_axf_file(*r.axf);
+    result.lines.push_back(axf_line(*r.axf, *result.paint));
+  }
+  if (merl_table) result.lines.push_back(write_filled_merl(std::move(*merl_table), *r.merl));
+  result.write_s = seconds_since(t0);
+}
+
+}  // namespace
+
+ExportResult export_paint(const ExportRequest& r) {
+  if (!r.axf && !r.merl) throw UsageError("nothing to write: give --axf FILE and/or --merl FILE");
+  if (r.inputs.empty() || r.inputs.size() > 2) throw UsageError("give one session folder, or one or two paint files");
+  if (r.lobes && (*r.lobes < 1 || *r.lobes > 3)) throw UsageError(fmt::format("--lobes {}: must be 1..3", *r.lobes));
+  ExportResult result;
+  if (acq::is_session_dir(r.inputs[0]))
+    export_session(r, result);
+  else
+    export_paint_files(r, result);
+  return result;
+}
+
+AxfPaint export_axf(const std::vector<Json>& fits, const AxfProvenance& provenance, const fs::path& out,
+                         const std::string& name) {
+  AxfPaint paint = paint_of_fits(fits);
+  paint.provenance = provenance;
+  if (!name.empty()) paint.name = name;
+  write_axf_file(out, paint);
+  return read_axf_file(out);
+}
+
+LibraryEntry library_add(const fs::path& dir, const fs::path& paint_file, bool replace, const std::string& name) {
+  AxfPaint paint = load_any_paint(paint_file);
+  if (!name.empty()) paint.name = name;
+  PaintLibrary lib = PaintLibrary::open(dir, true);
+  return lib.add(paint, replace);
+}
+
+Preview render_preview_png(const fs::path& paint_file, const fs::path& out_png, const PreviewOptions& options,
+                                const std::optional<fs::path>& hdr_out) {
+  const AxfPaint paint = load_any_paint(paint_file);
+  const auto model = brdf::make_brdf(paint.paint_spec());
+  Preview p = render_preview(*model, options);
+  write_png8(out_png, p.png);
+  if (hdr_out) write_exr_rgb(*hdr_out, p.linear, "preview of " + paint.name + ", linear radiance");
+  return p;
+}
+
+ComparisonResult render_comparison_png(const fs::path& paint_file, const fs::path& session_dir, double angle_deg,
+                                       const fs::path& out_png, const std::optional<fs::path>& calib_dir,
+                                       const CompareOptions& options, const std::optional<fs::path>& hdr_out) {
+  const AxfPaint paint = load_any_paint(paint_file);
+  const auto model = brdf::make_brdf(paint.paint_spec());
+  const acq::SessionDir session = acq::SessionDir::open(session_dir);
+  const auto entries = session.finished_entries();
+  if (entries.empty()) throw DataError(session_dir.string() + ": the session has no finished light position");
+  // The finished position nearest the requested angle.
+  const acq::JournalEntry* best = &entries.front();
+  for (const auto& e : entries)
+    if (std::abs(angle_diff_deg(e.angle_deg, angle_deg)) < std::abs(angle_diff_deg(best->angle_deg, angle_deg)))
+      best = &e;
+  const calib::RigCalibration cal = acq::session_calibration(session, calib_dir);
+  const ExrImage measured = read_exr(session.dir() / best->file);
+  ComparisonResult result;
+  result.comparison = render_comparison(*model, cal, measured, best->angle_deg, options);
+  result.angle_deg = best->angle_deg;
+  result.image = best->file;
+  const Comparison& c = result.comparison;
+  write_png8(out_png, c.png);
+  if (hdr_out) {
+    ImageF both(2 * c.measured.width(), c.measured.height(), 3);
+    for (int y = 0; y < c.measured.height(); ++y)
+      for (int x = 0; x < c.measured.width(); ++x)
+        for (int ch = 0; ch < 3; ++ch) {
+          both.at(x, y, ch) = c.measured.at(x, y, ch);
+          both.at(c.measured.width() + x, y, ch) = c.model.at(x, y, ch);
+        }
+    write_exr_rgb(*hdr_out, both, "measured | model, linear DN/s");
+  }
+  return result;
+}
+
+AxfPaint load_any_paint(const fs::path& file) {
+  if (!fs::exists(file)) throw IoError(file.string(), "no such file");
+  if (fs::is_directory(file)) throw UsageError(file.string() + ": a folder, expected a paint file (.axf.h5, fit.json or .toml)");
+  const std::string ext = lower_extension(file);
+  if (ext == ".h5" || ext == ".hdf5") return read_axf_file(file);
+  if (ext == ".json") {
+    AxfPaint p = axf_from_fit_json(read_json_file(file), file.string());
+    p.provenance.source = fs::absolute(file).lexically_normal().string();
+    return p;
+  }
+  if (ext == ".toml") {
+    AxfPaint p = axf_from_paint(brdf::load_paint_file(file));
+    p.provenance.source = fs::absolute(file).lexically_normal().string();
+    return p;
+  }
+  throw UsageError(file.string() + ": unknown kind of paint file (expected .axf.h5 / .h5, fit .json or paint .toml)");
+}
+
+std::string write_filled_merl(brdf::MerlTable table, const fs::path& out) {
+  const HoleFillReport r = fill_holes(table);
+  brdf::write_merl(out, table);
+  return fmt::format(
+      "wrote {} (MERL .binary: {} measured bins, {} filled from the phi_d mirror, {} by push-pull, {} below the "
+      "horizon left empty)",
+      out.string(), r.measured_bins, r.filled_mirror, r.filled_pyramid, r.invalid_empty);
+}
+
+}  // namespace paintlab::fit
