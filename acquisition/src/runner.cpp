@@ -76,8 +76,23 @@ struct StopRun {
 
 }  // namespace
 
+void RunnerOptions::check() const {
+  auto bad = [](const char* field, double value, const char* rule) {
+    throw UsageError(fmt::format("RunnerOptions::{} = {}: {}", field, value, rule));
+  };
+  if (max_retries < 0 || max_retries > 100) bad("max_retries", max_retries, "0..100");
+  if (!(retry_backoff_s >= 0.0) || !std::isfinite(retry_backoff_s)) bad("retry_backoff_s", retry_backoff_s, ">= 0 s");
+  if (!(move_timeout_s > 0.0) || !std::isfinite(move_timeout_s)) bad("move_timeout_s", move_timeout_s, "> 0 s");
+  if (!(capture_timeout_s > 0.0) || !std::isfinite(capture_timeout_s))
+    bad("capture_timeout_s", capture_timeout_s, "> 0 s");
+  if (!(poll_s > 0.0) || !std::isfinite(poll_s)) bad("poll_s", poll_s, "> 0 s");
+  if (queue_depth < 1 || queue_depth > 64) bad("queue_depth", queue_depth, "1..64");
+}
+
 Runner::Runner(const SessionDir& session, RigHandles rig, MergeFn merge, RunnerOptions options)
-    : session_(session), rig_(rig), merge_(std::move(merge)), options_(options) {}
+    : session_(session), rig_(rig), merge_(std::move(merge)), options_(options) {
+  options_.check();  // a negative max_retries would never switch the LED off
+}
 
 RunSummary Runner::run(const std::atomic<bool>& stop) {
   const auto wall_start = std::chrono::steady_clock::now();

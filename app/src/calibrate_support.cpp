@@ -12,6 +12,7 @@
 #include "paintlab/calibration/procedure.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/response.h"
+#include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
 #include "paintlab/core/image_io.h"

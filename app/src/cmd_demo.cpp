@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <toml++/toml.h>
 
 #include "cli.h"
 #include "paintlab/brdf/paint.h"
@@ -55,57 +56,50 @@ struct DemoArgs {
   bool keep_going = false;
 };
 
-// Sets `key = value` in `[section]` of a TOML text, keeping the line's comment. The key
-// must exist (the embedded rig is ours: a miss is a programming error, said plainly).
-void set_key(std::string& text, const std::string& section, const std::string& key, const std::string& value) {
-  std::istringstream in(text);
-  std::ostringstream out;
-  std::string line, current;
-  bool done = false;
-  while (std::getline(in, line)) {
-    std::string trimmed = line.substr(0, line.find('#'));
-    trimmed.erase(0, trimmed.find_first_not_of(" \t"));
-    if (!trimmed.empty() && trimmed.front() == '[') {
-      const auto close = trimmed.find(']');
-      current = trimmed.substr(1, close == std::string::npos ? std::string::npos : close - 1);
-    } else if (!done && current == section && trimmed.rfind(key, 0) == 0) {
-      const std::string rest = trimmed.substr(key.size());
-      if (rest.find_first_not_of(" \t") != std::string::npos && rest[rest.find_first_not_of(" \t")] == '=') {
-        const auto hash = line.find('#');
-        std::string comment = hash == std::string::npos ? std::string() : "   " + line.substr(hash);
-        line = key + " = " + value + comment;
-        done = true;
-      }
-    }
-    out << line << '\n';
-  }
-  if (!done) throw std::logic_error(fmt::format("demo: the built-in rig has no key {} in [{}]", key, section));
-  text = out.str();
+// Sets `path` (e.g. "geometry.image_width_px") of the built-in rig to `value`. The key must
+// exist (the embedded rig is ours: a miss is a programming error, said plainly).
+template <class T>
+void set_key(toml::table& rig, std::string_view path, T value) {
+  const auto dot = path.rfind('.');
+  toml::table* parent = dot == std::string_view::npos ? &rig : rig.at_path(path.substr(0, dot)).as_table();
+  const std::string_view key = dot == std::string_view::npos ? path : path.substr(dot + 1);
+  if (!parent || !parent->contains(key))
+    throw std::logic_error(fmt::format("demo: the built-in rig has no key {}", path));
+  parent->insert_or_assign(key, value);
 }
 
-// The built-in simulated rig. Quick: half the resolution (same field of view: pixels twice
-// as large, intrinsics halved), light every 10 degrees, 8 exposures.
+// The rig of `paintlab demo`: the built-in simulated rig with its calibration folder beside
+// the rig file; with `quick`, half the resolution (pixels twice as large, intrinsics halved),
+// light every 10 degrees, 8 exposures. Numbers are rounded to 6 significant digits.
 std::string demo_rig_text(bool quick) {
-  std::string text = resources::rig_sim_toml();
-  set_key(text, "", "calibration", "\"calib\"");
-  if (!quick) return text;
-  RigConfig full = RigConfig::parse(ConfigTable::parse_string(text, "rig-sim.toml"), "rig-sim.toml");
-  const sim::SimConfig truth = sim::SimConfig::from_rig(full);
-  const double s = 0.5;
-  auto num = [](double v) { return fmt::format("{:.6g}", v); };
-  set_key(text, "geometry", "image_width_px", std::to_string(full.geometry.image_width_px / 2));
-  set_key(text, "geometry", "image_height_px", std::to_string(full.geometry.image_height_px / 2));
-  set_key(text, "geometry", "pixel_size_um", num(full.geometry.pixel_size_um * 2));
-  const Mat3 K = truth.camera.K();
-  set_key(text, "sim.camera", "fx_px", num(K(0, 0) * s));
-  set_key(text, "sim.camera", "fy_px", num(K(1, 1) * s));
-  // Pixel centres: x' + 0.5 = (x + 0.5) / 2.
-  set_key(text, "sim.camera", "cx_px", num((K(0, 2) + 0.5) * s - 0.5));
-  set_key(text, "sim.camera", "cy_px", num((K(1, 2) + 0.5) * s - 0.5));
-  set_key(text, "sim.camera", "psf_sigma_px", num(truth.camera.psf_sigma_px * s));
-  set_key(text, "plan", "angle_step_deg", "10");
-  set_key(text, "plan.bracket", "count", "8");
-  return "# paintlab demo --quick: the built-in simulated rig at half resolution, light every 10 deg.\n" + text;
+  const std::string text = resources::rig_sim_toml();
+  toml::table rig = toml::parse(text, "rig-sim.toml");
+  set_key(rig, "calibration", std::string("calib"));
+  if (quick) {
+    RigConfig full = RigConfig::parse(ConfigTable::parse_string(text, "rig-sim.toml"), "rig-sim.toml");
+    const sim::SimConfig truth = sim::SimConfig::from_rig(full);
+    const double s = 0.5;
+    auto num = [](double v) { return std::stod(fmt::format("{:.6g}", v)); };
+    set_key(rig, "geometry.image_width_px", std::int64_t{full.geometry.image_width_px / 2});
+    set_key(rig, "geometry.image_height_px", std::int64_t{full.geometry.image_height_px / 2});
+    set_key(rig, "geometry.pixel_size_um", num(full.geometry.pixel_size_um * 2));
+    const Mat3 K = truth.camera.K();
+    set_key(rig, "sim.camera.fx_px", num(K(0, 0) * s));
+    set_key(rig, "sim.camera.fy_px", num(K(1, 1) * s));
+    // Pixel centres: x' + 0.5 = (x + 0.5) / 2.
+    set_key(rig, "sim.camera.cx_px", num((K(0, 2) + 0.5) * s - 0.5));
+    set_key(rig, "sim.camera.cy_px", num((K(1, 2) + 0.5) * s - 0.5));
+    set_key(rig, "sim.camera.psf_sigma_px", num(truth.camera.psf_sigma_px * s));
+    set_key(rig, "plan.angle_step_deg", std::int64_t{10});
+    set_key(rig, "plan.bracket.count", std::int64_t{8});
+  }
+  std::ostringstream out;
+  out << (quick ? "# paintlab demo --quick: the built-in simulated rig (examples/rig-sim.toml) at half resolution,\n"
+                  "# light every 10 deg, 8 exposures; the keys are described in docs/rig.md.\n"
+                : "# paintlab demo: the built-in simulated rig (examples/rig-sim.toml); the keys are described in "
+                  "docs/rig.md.\n")
+      << rig << "\n";
+  return out.str();
 }
 
 // The paint the demo measures: a file, or the built-in silver metallic.

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <mutex>
 #include <string>
 
 #include "paintlab/core/clock.h"
@@ -17,17 +18,22 @@
 
 namespace paintlab::test {
 
-// The one test clock: now_s() moves only when someone sleeps on it.
+// The one test clock: now_s() moves only when someone sleeps on it, at once (thread-safe),
+// so motion, settling and exposures take their physical durations in virtual time only.
 class FakeClock final : public Clock {
  public:
   explicit FakeClock(double start_s = 1000.0) : t_(start_s) {}
-  double now_s() const override { return t_; }
+  double now_s() const override {
+    std::lock_guard lock(mutex_);
+    return t_;
+  }
   void sleep_s(double s) override {
+    std::lock_guard lock(mutex_);
     if (s > 0) t_ += s;
   }
-  void advance(double s) { sleep_s(s); }
 
  private:
+  mutable std::mutex mutex_;
   double t_;
 };
 

@@ -10,7 +10,7 @@
 #include "paintlab/devices/aravis_camera.h"
 #include "paintlab/sim/peers/gige_camera.h"
 #include "process_util.h"
-#include "step_clock.h"
+#include "fake_rig.h"
 #include "test_util.h"
 
 namespace paintlab {
@@ -66,7 +66,7 @@ class SimCamera : public ::testing::Test {
     EXPECT_EQ(mismatches, 0);
   }
 
-  test::StepClock clock_;
+  test::FakeClock clock_;
   std::unique_ptr<sim::GigeCamera> peer_;
   std::unique_ptr<AravisCamera> cam_;
 };

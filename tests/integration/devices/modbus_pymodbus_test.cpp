@@ -9,7 +9,7 @@
 #include "paintlab/devices/modbus_turntable.h"
 #include "paintlab/sim/peers/turntable_server.h"
 #include "process_util.h"
-#include "step_clock.h"
+#include "fake_rig.h"
 #include "test_util.h"
 
 namespace paintlab {
@@ -40,7 +40,7 @@ class PymodbusServer : public ::testing::TestWithParam<std::string> {
   }
 };
 
-void drive(dev::ModbusTurntable& table, test::StepClock& clock) {
+void drive(dev::ModbusTurntable& table, test::FakeClock& clock) {
   ASSERT_TRUE(table.connect());
   ASSERT_TRUE(table.move_to(42.5));
   double t0 = clock.now_s();
@@ -66,7 +66,7 @@ TEST_P(PymodbusServer, DriverMovesTheTableOverTcp) {
                         std::to_string(port)});
   ASSERT_TRUE(server.wait_for("ready", 30.0));
   ASSERT_TRUE(test::wait_tcp(port, 15.0)) << "pymodbus server did not listen";
-  test::StepClock clock;
+  test::FakeClock clock;
   dev::ModbusTurntableConfig cfg;
   cfg.map = dev::builtin_register_map(GetParam());
   cfg.scale.counts_per_deg = 100;
@@ -90,7 +90,7 @@ TEST_P(PymodbusServer, DriverMovesTheTableOverRtu) {
   test::Process server({kPython, script().string(), "server", "--map", write_map(dir, GetParam()).string(), "--rtu",
                         pty.a});
   ASSERT_TRUE(server.wait_for("ready", 30.0));
-  test::StepClock clock;
+  test::FakeClock clock;
   dev::ModbusTurntableConfig cfg;
   cfg.transport = dev::ModbusTurntableConfig::Transport::Rtu;
   cfg.serial_device = pty.b;

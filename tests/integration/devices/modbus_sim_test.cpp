@@ -8,7 +8,7 @@
 #include "paintlab/core/error.h"
 #include "paintlab/devices/modbus_turntable.h"
 #include "paintlab/sim/peers/turntable_server.h"
-#include "step_clock.h"
+#include "fake_rig.h"
 #include "test_util.h"
 
 namespace paintlab {
@@ -25,7 +25,7 @@ double wall_s() {
 }
 
 struct Rig {
-  test::StepClock clock;
+  test::FakeClock clock;
   std::unique_ptr<TurntableServer> server;
   ModbusTurntableConfig cfg;
 

@@ -305,3 +305,26 @@ TEST(Session, RefusesAFolderHoldingAnotherSession) {
   EXPECT_THROW(SessionDir::create(d / "e", empty), DataError);
   EXPECT_THROW(SessionDir::open(d / "nothing"), DataError);
 }
+
+TEST(Runner, BadOptionsAreRefusedBeforeAnythingMoves) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan());
+  Rig rig;
+  auto refused = [&](auto change) {
+    RunnerOptions o;
+    change(o);
+    try {
+      Runner runner(s, rig.handles(), merge_mean, o);
+    } catch (const UsageError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_THAT(refused([](RunnerOptions& o) { o.max_retries = -1; }), HasSubstr("RunnerOptions::max_retries = -1: 0..100"));
+  EXPECT_THAT(refused([](RunnerOptions& o) { o.capture_timeout_s = 0; }), HasSubstr("capture_timeout_s = 0"));
+  EXPECT_THAT(refused([](RunnerOptions& o) { o.queue_depth = 0; }), HasSubstr("queue_depth = 0: 1..64"));
+  EXPECT_THAT(refused([](RunnerOptions& o) { o.poll_s = std::nan(""); }), HasSubstr("poll_s"));
+  EXPECT_EQ(refused([](RunnerOptions&) {}), "accepted");
+  EXPECT_EQ(rig.table.moves, 0);
+  EXPECT_EQ(rig.camera.captures, 0);
+}

@@ -4,19 +4,14 @@
 #include <gtest/gtest.h>
 
 #include "paintlab/sim/peers/sim_light.h"
+#include "fake_rig.h"
 
 namespace paintlab {
 namespace {
 
-class ManualClock final : public Clock {
- public:
-  double now_s() const override { return t; }
-  void sleep_s(double s) override { t += s; }
-  double t = 0;
-};
 
 TEST(SimLight, SwitchesTheWorldsLedAndReadsBack) {
-  ManualClock clock;
+  test::FakeClock clock(0.0);
   bool world_led = false;
   sim::SimLight led({}, clock, [&](bool on) { world_led = on; });
   ASSERT_TRUE(led.on());
@@ -28,7 +23,7 @@ TEST(SimLight, SwitchesTheWorldsLedAndReadsBack) {
 }
 
 TEST(SimLight, MaximumOnTimeOnTheSimClock) {
-  ManualClock clock;
+  test::FakeClock clock(0.0);
   bool world_led = false;
   sim::SimLight led({.max_on_s = 2.0}, clock, [&](bool on) { world_led = on; });
   ASSERT_TRUE(led.on());
@@ -41,7 +36,7 @@ TEST(SimLight, MaximumOnTimeOnTheSimClock) {
 }
 
 TEST(SimLight, StuckLedIsReportedAsNotSwitching) {
-  ManualClock clock;
+  test::FakeClock clock(0.0);
   sim::SimLight led({}, clock);
   led.set_stuck(true);
   auto r = led.on();

@@ -59,7 +59,7 @@ void expect_recovered(const brdf::CookTorranceParams& truth, const brdf::CookTor
 
 // Unit tests keep the fits small (tens of thousands of bins, fewer starts): the full-table
 // fit is bench/fitting's BM_FitCookTorranceFullTable, the whole-pipeline accuracy is
-// sim_pipeline_itest.cpp.
+// tests/integration/fitting/sim_pipeline_test.cpp.
 CtFitOptions quick_options(int lobes) {
   CtFitOptions opt;
   opt.lobes = lobes;

@@ -181,7 +181,8 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   const auto* ct = fitted.cook_torrance();
   ASSERT_NE(ct, nullptr);
   ASSERT_NE(truth, nullptr);
-  // A 100-pixel sphere every 6 degrees: the whole-pipeline accuracy is sim_pipeline_itest.cpp's.
+  // A 100-pixel sphere every 6 degrees: the whole-pipeline accuracy is
+  // tests/integration/fitting/sim_pipeline_test.cpp's.
   for (int c = 0; c < 3; ++c) EXPECT_THAT(ct->kd[c], test::NearRel(truth->kd[c], 0.03)) << c;
   EXPECT_THAT(ct->lobes[1].m, test::NearRel(truth->lobes[1].m, 0.03));
 }

@@ -50,6 +50,9 @@ struct RunnerOptions {
   int queue_depth = 2;            // captured brackets waiting for the writer (memory bound)
   bool keep_raw = false;          // also store raw frames as 16-bit PNG under raw/
   bool home_first = true;
+  // UsageError naming the field, its value and the rule (max_retries 0..100, backoff >= 0,
+  // timeouts and polling > 0, queue_depth 1..64).
+  void check() const;
 };
 
 struct RunSummary {
