@@ -73,7 +73,7 @@ void set_key(toml::table& rig, std::string_view path, T value) {
 // light every 10 degrees, 8 exposures. Numbers are rounded to 6 significant digits.
 std::string demo_rig_text(bool quick) {
   const std::string text = resources::rig_sim_toml();
-  toml::table rig = toml::parse(text, "rig-sim.toml");
+  toml::table rig = toml::parse(std::string_view(text), std::string_view("rig-sim.toml"));
   set_key(rig, "calibration", std::string("calib"));
   if (quick) {
     RigConfig full = RigConfig::parse(ConfigTable::parse_string(text, "rig-sim.toml"), "rig-sim.toml");
