@@ -98,7 +98,10 @@ std::string demo_rig_text(bool quick) {
                   "# light every 10 deg, 8 exposures; the keys are described in docs/rig.md.\n"
                 : "# paintlab demo: the built-in simulated rig (examples/rig-sim.toml); the keys are described in "
                   "docs/rig.md.\n")
-      << rig << "\n";
+      // Shortest round-tripping numbers (0.6, not 0.59999999999999998), strings in double quotes.
+      << toml::toml_formatter(rig, (toml::toml_formatter::default_flags & ~toml::format_flags::allow_literal_strings) |
+                                       toml::format_flags::relaxed_float_precision)
+      << "\n";
   return out.str();
 }
 
