@@ -58,7 +58,7 @@ int run_validate(const std::vector<std::string>& files) {
       std::string what = v.format == fit::kAxfLibraryFormat
                              ? fmt::format("paint library file, {} paints", v.paints.size())
                              : fmt::format("AxF-like paint '{}'", v.paints.empty() ? "" : v.paints[0]);
-      say(fmt::format("{}: valid ({}, format version {})", f, what, fit::kAxfFormatVersion));
+      say(fmt::format("{}: valid ({}, format version {})", f, what, v.format_version));
       continue;
     }
     ++invalid;

@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <numbers>
 #include <set>
 
@@ -82,7 +83,12 @@ std::vector<double> rgb_vec(const brdf::Rgb& c) { return {c[0], c[1], c[2]}; }
 
 // ---- writing ----
 
-void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const Writer& w) {
+// The name of the attribute holding the SHA-256 of a paint's content (format version 2).
+constexpr const char* kContentSha256 = "content_sha256";
+
+void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const Writer& file_writer) {
+  h5::Digest digest(rp);
+  const Writer w = file_writer.with_digest(&digest);
   w.attr_string(root, "format", kAxfFormat, rp);
   w.attr_int(root, "format_version", kAxfFormatVersion, rp);
   w.attr_string(root, "paint_name", paint.name, rp);
@@ -202,6 +208,7 @@ void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const
     w.strings(g.get(), "calibration_files", files, h5::join(gp, "calibration_files"));
     w.strings(g.get(), "calibration_sha256", sums, h5::join(gp, "calibration_sha256"));
   }
+  file_writer.attr_string(root, kContentSha256, digest.sha256_hex(), rp);
 }
 
 // ---- reading and validation ----
@@ -288,8 +295,8 @@ void check_conventions(hid_t root, const std::string& rp, const Problems& p) {
   for (const auto& [k, v] : kConventions) {
     auto s = h5::read_attr_string(g.get(), k, gp, p);
     if (s && *s != v)
-      p.add(h5::attr_path(gp, k), "states a different convention than format version 1 (\"" + *s +
-                                      "\"); expected \"" + v + "\"");
+      p.add(h5::attr_path(gp, k), "states a different convention than the format (versions 1 and 2) defines (\"" +
+                                      *s + "\"); expected \"" + v + "\"");
   }
 }
 
@@ -374,7 +381,7 @@ std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::stri
   const std::vector<std::string> std_names = {"ior_std", "diffuse_std", "ct_coeffs_std", "ct_spreads_std",
                                               "ct_f0s_std"};
   int present = 0;
-  for (const auto& sn : std_names) present += h5::exists(g.get(), sn) ? 1 : 0;
+  for (const auto& sn : std_names) present += h5::exists(g.get(), sn, h5::join(gp, sn), p) ? 1 : 0;
   if (present > 0 && n > 0) {
     const std::string swhy = " (the shape of the parameter)";
     auto is = read_checked(g.get(), "ior_std", gp, {}, Range::non_negative(), p, swhy);
@@ -433,7 +440,7 @@ std::optional<AxfCookTorrance> read_cook_torrance(hid_t root, const std::string&
   // Standard deviations: all four or none.
   const std::vector<std::string> std_names = {"kd_std", "ks_std", "m_std", "r_std"};
   int present = 0;
-  for (const auto& s : std_names) present += h5::exists(g.get(), s) ? 1 : 0;
+  for (const auto& s : std_names) present += h5::exists(g.get(), s, h5::join(gp, s), p) ? 1 : 0;
   if (present > 0 && n > 0) {
     const std::string swhy = " (the shape of the parameter)";
     auto kds = read_checked(g.get(), "kd_std", gp, {3}, Range::non_negative(), p, swhy);
@@ -562,18 +569,53 @@ AxfProvenance read_provenance(hid_t root, const std::string& rp, const Problems&
   return pv;
 }
 
+// Reads and checks a format_version attribute.
+std::optional<std::int64_t> read_version(hid_t root, const std::string& rp, const Problems& p) {
+  auto v = h5::read_attr_int(root, "format_version", rp, p);
+  if (!v) return v;
+  if (*v > kAxfFormatVersion)
+    p.add(h5::attr_path(rp, "format_version"),
+          fmt::format("{} is newer than this software reads ({}): update paintlab", *v, kAxfFormatVersion));
+  else if (*v < 1)
+    p.add(h5::attr_path(rp, "format_version"), fmt::format("{} is not a format version (>= 1)", *v));
+  return v;
+}
+
+// Checks the content checksum against what was read (`digest`). Files of format version 2
+// carry it; version 1 files have none and are read as before. A mismatch goes first among
+// the problems found since `first`: it is the one that says the file is damaged.
+void check_content(hid_t root, const std::string& rp, std::optional<std::int64_t> version, const h5::Digest& digest,
+                   std::size_t first, const Problems& p) {
+  if (!version || *version > kAxfFormatVersion) return;  // unknown rules: the version problem says so
+  std::vector<std::string> own;
+  const Problems q{&own, p.file};
+  if (*version < 2 && !h5::has_attr(root, kContentSha256, rp, q)) return;
+  const std::string where = h5::attr_path(rp, kContentSha256);
+  std::string problem;
+  if (auto stored = h5::read_attr_string(root, kContentSha256, rp, q)) {
+    const std::string actual = digest.sha256_hex();
+    if (*stored != actual)
+      problem = where + ": '" + *stored + "' does not match the content read (SHA-256 " + actual +
+                "): the file is damaged or was changed after it was written";
+  } else {
+    problem = own.empty() ? where + ": missing" : own.front();
+    problem += fmt::format(" (a file of format version {} carries the SHA-256 of its content; damaged file?)", *version);
+  }
+  if (!problem.empty())
+    p.list->insert(p.list->begin() + static_cast<std::ptrdiff_t>(std::min(first, p.list->size())), problem);
+}
+
 // Reads one paint rooted at `root` (whose HDF5 path is rp), recording every problem.
-AxfPaint read_paint(hid_t root, const std::string& rp, const Problems& p) {
+AxfPaint read_paint(hid_t root, const std::string& rp, const Problems& problems,
+                    std::optional<std::int64_t>* version_out = nullptr) {
+  const std::size_t first = problems.list->size();
+  h5::Digest digest(rp);
+  const Problems p = problems.with_digest(&digest);
   AxfPaint paint;
   if (auto f = h5::read_attr_string(root, "format", rp, p); f && *f != kAxfFormat)
     p.add(h5::attr_path(rp, "format"), "'" + *f + "' is not '" + kAxfFormat + "'");
-  if (auto v = h5::read_attr_int(root, "format_version", rp, p)) {
-    if (*v > kAxfFormatVersion)
-      p.add(h5::attr_path(rp, "format_version"),
-            fmt::format("{} is newer than this software reads ({}): update paintlab", *v, kAxfFormatVersion));
-    else if (*v < 1)
-      p.add(h5::attr_path(rp, "format_version"), fmt::format("{} is not a format version (>= 1)", *v));
-  }
+  const auto version = read_version(root, rp, p);
+  if (version_out) *version_out = version;
   if (auto n = h5::read_attr_string(root, "paint_name", rp, p)) {
     paint.name = *n;
     if (!valid_name(*n)) p.add(h5::attr_path(rp, "paint_name"), "'" + *n + "' is not a paint name ([a-z0-9._-]+)");
@@ -586,49 +628,53 @@ AxfPaint read_paint(hid_t root, const std::string& rp, const Problems& p) {
   check_conventions(root, rp, p);
   const bool need_carpaint = paint.model == "axf-carpaint";
   const bool need_ct = paint.model == "cook-torrance";
-  if (need_carpaint || h5::exists(root, "carpaint")) paint.carpaint = read_carpaint(root, rp, p, &paint.carpaint_stddev);
-  if (need_ct || h5::exists(root, "cook_torrance")) paint.cook_torrance = read_cook_torrance(root, rp, p);
-  if (h5::exists(root, "flakes")) {
+  auto present = [&](const char* name) { return h5::exists(root, name, h5::join(rp, name), p); };
+  if (need_carpaint || present("carpaint")) paint.carpaint = read_carpaint(root, rp, p, &paint.carpaint_stddev);
+  if (need_ct || present("cook_torrance")) paint.cook_torrance = read_cook_torrance(root, rp, p);
+  if (present("flakes")) {
     std::size_t lobes = 0;
     if (paint.model == "axf-carpaint" && paint.carpaint) lobes = paint.carpaint->lobes.size();
     if (paint.model == "cook-torrance" && paint.cook_torrance) lobes = paint.cook_torrance->params.lobes.size();
     paint.flakes = read_flakes(root, rp, lobes, p);
   }
-  if (h5::exists(root, "fit_quality")) paint.fit_quality = read_fit_quality(root, rp, p);
+  if (present("fit_quality")) paint.fit_quality = read_fit_quality(root, rp, p);
   paint.provenance = read_provenance(root, rp, p);
+  check_content(root, rp, version, digest, first, problems);
   return paint;
 }
 
 // Opens a file for reading; records one problem (or throws IoError when `throw_io`) when
 // it cannot be opened.
-Handle open_file(const fs::path& path, const Problems& p, bool throw_io) {
+std::optional<h5::InputFile> open_file(const fs::path& path, const Problems& p, bool throw_io) {
   h5::silence_errors();
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) {
     if (throw_io) throw IoError(path.string(), "cannot read", ENOENT);
     p.add(path.string(), "no such file");
-    return {};
+    return std::nullopt;
   }
-  Handle f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!f) {
-    const htri_t sig = H5Fis_hdf5(path.c_str());
-    p.add("/", sig > 0 ? "truncated or damaged HDF5 file (HDF5 cannot open it)"
-                       : "not an HDF5 file (no HDF5 signature): not an AxF-like paint file");
-  }
-  return f;
+  std::string problem;
+  auto in = h5::open_input(path.string(), &problem);
+  if (!in) p.add("/", problem);
+  return in;
 }
 
-Handle create_file(const fs::path& tmp) {
-  h5::silence_errors();
-  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
-  Handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
-  if (!f) throw IoError(tmp.string(), "cannot create HDF5 file");
-  return f;
+// The root group of an open file; records a problem when it cannot be opened.
+Handle open_root(hid_t file, const Problems& p) {
+  Handle root(H5Gopen2(file, "/", H5P_DEFAULT), H5Gclose);
+  if (!root) p.add("/", "root group cannot be opened (damaged file?)");
+  return root;
 }
 
-void close_file(Handle& f, const fs::path& tmp) {
-  if (H5Fflush(f.get(), H5F_SCOPE_GLOBAL) < 0 || !f.close()) throw IoError(tmp.string(), "cannot finish HDF5 file");
+// Builds a file in memory (`write` fills its root group) and returns its bytes.
+std::string build_image(const std::string& what, const std::function<void(hid_t root, const Writer& w)>& write) {
+  h5::MemoryFile f(what);
+  {
+    Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+    if (!root) throw IoError(what, "cannot write HDF5 object /");
+    write(root.get(), Writer(what));
+  }
+  return f.finish();
 }
 
 AxfPaint with_defaults(AxfPaint paint) {
@@ -761,41 +807,84 @@ AxfPaint merge_axf(AxfPaint base, const AxfPaint& other) {
   return base;
 }
 
-void check_axf_paint(const AxfPaint& paint) {
-  // One set of rules: write into an in-memory HDF5 file and read it back with the validator.
-  h5::silence_errors();
-  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  H5Pset_fapl_core(fapl.get(), 1 << 16, 0);
-  H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
-  const std::string name = fmt::format("paintlab-check-{}", static_cast<const void*>(&paint));
-  Handle f(H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
-  if (!f) throw IoError(name, "cannot create an in-memory HDF5 file");
-  Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
-  write_paint(root.get(), "/", paint, Writer(name));
+namespace {
+
+// Validates (and reads) a library file: its root (with its own content checksum) and paints.
+std::vector<AxfPaint> read_library(hid_t root, const Problems& problems, std::vector<std::string>* names,
+                                   std::optional<std::int64_t>* version_out = nullptr) {
+  std::vector<AxfPaint> out;
+  const std::size_t first = problems.list->size();
+  h5::Digest digest("/");
+  const Problems p = problems.with_digest(&digest);
+  h5::read_attr_string(root, "format", "/", p);
+  const auto version = read_version(root, "/", p);
+  if (version_out) *version_out = version;
+  auto count = h5::read_attr_int(root, "paint_count", "/", p);
+  check_content(root, "/", version, digest, first, problems);
+  Handle group = h5::open_group(root, "paints", "/paints", problems);
+  if (!group) return out;
+  const auto members = h5::member_names(group.get(), "/paints", problems);
+  if (count && *count != static_cast<std::int64_t>(members.size()))
+    problems.add(h5::attr_path("/", "paint_count"),
+                 fmt::format("is {} but /paints holds {} paints", *count, members.size()));
+  for (const auto& name : members) {
+    const std::string gp = "/paints/" + name;
+    Handle g = h5::open_group(group.get(), name, gp, problems);
+    if (!g) continue;
+    AxfPaint paint = read_paint(g.get(), gp, problems);
+    if (!paint.name.empty() && paint.name != name)
+      problems.add(h5::attr_path(gp, "paint_name"), "'" + paint.name + "' differs from the group name '" + name + "'");
+    if (names) names->push_back(name);
+    out.push_back(std::move(paint));
+  }
+  return out;
+}
+
+// The problems the validator finds in a file built in memory.
+std::vector<std::string> check_image(const std::string& bytes, const std::string& what, bool library) {
+  h5::InputFile in(h5::open_image(bytes, what));
   std::vector<std::string> problems;
-  read_paint(root.get(), "/", Problems{&problems});
+  const Problems p{&problems, &in};
+  Handle root = open_root(in.get(), p);
+  if (!root) return problems;
+  if (library)
+    read_library(root.get(), p, nullptr);
+  else
+    read_paint(root.get(), "/", p);
+  return problems;
+}
+
+// The bytes of a paint's file, checked with exactly the validator's rules (DataError
+// naming the field; IoError naming `what` when HDF5 fails).
+std::string paint_image(const AxfPaint& paint, const std::string& what) {
+  const std::string image =
+      build_image(what, [&](hid_t root, const Writer& w) { write_paint(root, "/", paint, w); });
+  const auto problems = check_image(image, what, false);
   if (!problems.empty()) throw_problems("paint '" + paint.name + "'", problems);
+  return image;
+}
+
+}  // namespace
+
+void check_axf_paint(const AxfPaint& paint) {
+  // One set of rules: write the file in memory and read it back with the validator.
+  (void)paint_image(paint, "paint '" + paint.name + "'");
 }
 
 void write_axf_file(const fs::path& path, const AxfPaint& input) {
   const AxfPaint paint = with_defaults(input);
-  check_axf_paint(paint);
-  write_via_temp(path, [&](const fs::path& tmp) {
-    Handle f = create_file(tmp);
-    {
-      Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
-      write_paint(root.get(), "/", paint, Writer(path.string()));
-    }
-    close_file(f, tmp);
-  });
+  // Built and checked in memory first: HDF5 never writes to the disk, so a full disk is a
+  // failed write of bytes (IoError, the old file kept), never a half-closed HDF5 file.
+  write_file_atomic(path, paint_image(paint, path.string()));
 }
 
 AxfPaint read_axf_file(const fs::path& path) {
   std::vector<std::string> problems;
-  const Problems p{&problems};
-  Handle f = open_file(path, p, true);
-  if (!f) throw_problems(path.string(), problems);
-  Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+  auto in = open_file(path, Problems{&problems}, true);
+  if (!in) throw_problems(path.string(), problems);
+  const Problems p{&problems, &*in};
+  Handle root = open_root(in->get(), p);
+  if (!root) throw_problems(path.string(), problems);
   if (auto fmt_attr = h5::read_attr_string(root.get(), "format", "/", p); fmt_attr && *fmt_attr == kAxfLibraryFormat)
     throw DataError(path.string() + ": is a paint library file (" + kAxfLibraryFormat +
                     "), not a single paint: use paintlab library commands or read_axf_library_file");
@@ -813,61 +902,32 @@ void write_axf_library_file(const fs::path& path, const std::vector<AxfPaint>& i
     check_axf_paint(paints.back());
     if (!names.insert(p.name).second) throw DataError("paint '" + p.name + "' is listed twice");
   }
-  write_via_temp(path, [&](const fs::path& tmp) {
-    const Writer w(path.string());
-    Handle f = create_file(tmp);
-    {
-      Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
-      w.attr_string(root.get(), "format", kAxfLibraryFormat, "/");
-      w.attr_int(root.get(), "format_version", kAxfFormatVersion, "/");
-      w.attr_int(root.get(), "paint_count", static_cast<std::int64_t>(paints.size()), "/");
-      Handle group = w.create_group(root.get(), "paints", "/paints");
-      for (const auto& p : paints) {
-        const std::string gp = "/paints/" + p.name;
-        Handle g = w.create_group(group.get(), p.name, gp);
-        write_paint(g.get(), gp, p, w);
-      }
+  const std::string image = build_image(path.string(), [&](hid_t root, const Writer& w) {
+    h5::Digest digest("/");
+    const Writer rw = w.with_digest(&digest);
+    rw.attr_string(root, "format", kAxfLibraryFormat, "/");
+    rw.attr_int(root, "format_version", kAxfFormatVersion, "/");
+    rw.attr_int(root, "paint_count", static_cast<std::int64_t>(paints.size()), "/");
+    w.attr_string(root, kContentSha256, digest.sha256_hex(), "/");
+    Handle group = w.create_group(root, "paints", "/paints");
+    for (const auto& p : paints) {
+      const std::string gp = "/paints/" + p.name;
+      Handle g = w.create_group(group.get(), p.name, gp);
+      write_paint(g.get(), gp, p, w);
     }
-    close_file(f, tmp);
   });
+  const auto problems = check_image(image, path.string(), true);
+  if (!problems.empty()) throw_problems(path.string(), problems);
+  write_file_atomic(path, image);
 }
-
-namespace {
-
-// Validates (and reads) a library file's paints.
-std::vector<AxfPaint> read_library(hid_t root, const Problems& p, std::vector<std::string>* names) {
-  std::vector<AxfPaint> out;
-  if (auto v = h5::read_attr_int(root, "format_version", "/", p); v && *v > kAxfFormatVersion)
-    p.add(h5::attr_path("/", "format_version"),
-          fmt::format("{} is newer than this software reads ({}): update paintlab", *v, kAxfFormatVersion));
-  auto count = h5::read_attr_int(root, "paint_count", "/", p);
-  Handle group = h5::open_group(root, "paints", "/paints", p);
-  if (!group) return out;
-  const auto members = h5::member_names(group.get());
-  if (count && *count != static_cast<std::int64_t>(members.size()))
-    p.add(h5::attr_path("/", "paint_count"),
-          fmt::format("is {} but /paints holds {} paints", *count, members.size()));
-  for (const auto& name : members) {
-    const std::string gp = "/paints/" + name;
-    Handle g = h5::open_group(group.get(), name, gp, p);
-    if (!g) continue;
-    AxfPaint paint = read_paint(g.get(), gp, p);
-    if (!paint.name.empty() && paint.name != name)
-      p.add(h5::attr_path(gp, "paint_name"), "'" + paint.name + "' differs from the group name '" + name + "'");
-    if (names) names->push_back(name);
-    out.push_back(std::move(paint));
-  }
-  return out;
-}
-
-}  // namespace
 
 std::vector<AxfPaint> read_axf_library_file(const fs::path& path) {
   std::vector<std::string> problems;
-  const Problems p{&problems};
-  Handle f = open_file(path, p, true);
-  if (!f) throw_problems(path.string(), problems);
-  Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
+  auto in = open_file(path, Problems{&problems}, true);
+  if (!in) throw_problems(path.string(), problems);
+  const Problems p{&problems, &*in};
+  Handle root = open_root(in->get(), p);
+  if (!root) throw_problems(path.string(), problems);
   auto fmt_attr = h5::read_attr_string(root.get(), "format", "/", p);
   if (fmt_attr && *fmt_attr != kAxfLibraryFormat)
     p.add(h5::attr_path("/", "format"), "'" + *fmt_attr + "' is not '" + kAxfLibraryFormat + "'");
@@ -879,24 +939,23 @@ std::vector<AxfPaint> read_axf_library_file(const fs::path& path) {
 
 AxfValidation validate_axf_file(const fs::path& path) {
   AxfValidation v;
-  const Problems p{&v.problems};
-  Handle f = open_file(path, p, false);
-  if (!f) return v;
-  Handle root(H5Gopen2(f.get(), "/", H5P_DEFAULT), H5Gclose);
-  if (!root) {
-    p.add("/", "root group cannot be opened (damaged file?)");
-    return v;
-  }
+  auto in = open_file(path, Problems{&v.problems}, false);
+  if (!in) return v;
+  const Problems p{&v.problems, &*in};
+  Handle root = open_root(in->get(), p);
+  if (!root) return v;
   std::vector<std::string> ignore;
-  auto fmt_attr = h5::read_attr_string(root.get(), "format", "/", Problems{&ignore});
+  auto fmt_attr = h5::read_attr_string(root.get(), "format", "/", Problems{&ignore, &*in});
+  std::optional<std::int64_t> version;
   if (fmt_attr && *fmt_attr == kAxfLibraryFormat) {
     v.format = kAxfLibraryFormat;
-    read_library(root.get(), p, &v.paints);
+    read_library(root.get(), p, &v.paints, &version);
   } else {
     v.format = kAxfFormat;
-    AxfPaint paint = read_paint(root.get(), "/", p);
+    AxfPaint paint = read_paint(root.get(), "/", p, &version);
     if (!paint.name.empty()) v.paints.push_back(paint.name);
   }
+  v.format_version = static_cast<int>(version.value_or(0));
   return v;
 }
 

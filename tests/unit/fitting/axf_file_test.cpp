@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -124,16 +125,18 @@ void overwrite_doubles(hid_t f, const char* path, const std::vector<double>& v) 
   H5Dclose(ds);
 }
 
+// A fixed-length string, as files of format version 2 hold them.
 void set_string_attr(hid_t f, const char* obj, const char* name, const std::string& value) {
   const hid_t o = H5Oopen(f, obj, H5P_DEFAULT);
   ASSERT_GE(o, 0);
   if (H5Aexists(o, name) > 0) H5Adelete(o, name);
   const hid_t t = H5Tcopy(H5T_C_S1);
-  H5Tset_size(t, H5T_VARIABLE);
+  H5Tset_size(t, std::max<std::size_t>(value.size(), 1));
   const hid_t s = H5Screate(H5S_SCALAR);
   const hid_t a = H5Acreate2(o, name, t, s, H5P_DEFAULT, H5P_DEFAULT);
-  const char* ptr = value.c_str();
-  ASSERT_GE(H5Awrite(a, t, &ptr), 0);
+  std::string buf = value;
+  buf.resize(std::max<std::size_t>(value.size(), 1), '\0');
+  ASSERT_GE(H5Awrite(a, t, buf.data()), 0);
   H5Aclose(a);
   H5Sclose(s);
   H5Tclose(t);
@@ -341,8 +344,8 @@ TEST(AxfFile, ValidatorNamesTheFieldOfEveryDamage) {
          H5Gclose(g);
        },
        "/conventions attribute 'colour_table_domain': missing"},
-      {"newer version", [](hid_t f) { set_int_attr(f, "/", "format_version", 2); },
-       "/ attribute 'format_version': 2 is newer than this software reads (1)"},
+      {"newer version", [](hid_t f) { set_int_attr(f, "/", "format_version", 3); },
+       "/ attribute 'format_version': 3 is newer than this software reads (2)"},
       {"foreign format", [](hid_t f) { set_string_attr(f, "/", "format", "something-else"); },
        "/ attribute 'format': 'something-else' is not 'paintlab-axf-like'"},
       {"bad model", [](hid_t f) { set_string_attr(f, "/", "model", "phong"); }, "/ attribute 'model': 'phong'"},
@@ -375,6 +378,10 @@ TEST(AxfFile, ValidatorNamesTheFieldOfEveryDamage) {
     const AxfValidation v = validate_axf_file(file);
     EXPECT_FALSE(v.ok());
     EXPECT_TRUE(any_problem_has(v, d.expected)) << "expected \"" << d.expected << "\" in:\n" << all_problems(v);
+    // Every edit also changes the content its checksum covers (a newer version's rules are unknown).
+    if (d.what != "newer version") {
+      EXPECT_TRUE(any_problem_has(v, "/ attribute 'content_sha256'")) << all_problems(v);
+    }
     try {
       read_axf_file(file);
       ADD_FAILURE() << "read_axf_file accepted the damaged file";
@@ -508,14 +515,16 @@ TEST(AxfCli, ValidateExitCodesAndMessages) {
   write_axf_file(good, full_paint());
   auto r = test::run_paintlab("axf validate " + good.string());
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 1)"));
+  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 2)"));
 
   const fs::path bad = tmp / "bad.axf.h5";
   fs::copy_file(good, bad);
   damage(bad, [](hid_t f) { overwrite_doubles(f, "/carpaint/ct_spreads", {0.2, 1.3, 0.01}); });
   r = test::run_paintlab("axf validate " + good.string() + " " + bad.string());
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.out, HasSubstr("bad.axf.h5: invalid (1 problem)"));
+  // The edit breaks the content checksum too.
+  EXPECT_THAT(r.out, HasSubstr("bad.axf.h5: invalid (2 problems)"));
+  EXPECT_THAT(r.out, HasSubstr("/ attribute 'content_sha256'"));
   EXPECT_THAT(r.out, HasSubstr("/carpaint/ct_spreads: value 1.3 at index 1 out of range (0, 1)"));
 
   const std::string bytes = read_file(good);

@@ -24,7 +24,10 @@
 namespace paintlab::fit {
 
 inline constexpr const char* kAxfFormat = "paintlab-axf-like";
-inline constexpr int kAxfFormatVersion = 1;
+// The version written. Version 2 (issue 13) adds checksums: HDF5's checksummed metadata,
+// Fletcher-32 on every array, fixed-length strings and the SHA-256 of the content
+// (attribute content_sha256). Files of version 1 (no checksums) are still read.
+inline constexpr int kAxfFormatVersion = 2;
 // The file holding a whole library (`paintlab library export --h5`): /paints/<name> groups,
 // each with the layout of one AxF-like file.
 inline constexpr const char* kAxfLibraryFormat = "paintlab-axf-library";
@@ -96,15 +99,19 @@ AxfPaint merge_axf(AxfPaint base, const AxfPaint& other);
 
 // Writes the file atomically (temp file + rename: never a partial file). Checks the paint
 // first (DataError naming the field, nothing written). Fills exported_utc and
-// software_version when empty.
+// software_version when empty. The file is built in memory and written as bytes: a full
+// disk is an IoError that leaves the old file (or none) and no HDF5 object open.
 void write_axf_file(const std::filesystem::path& path, const AxfPaint& paint);
 // Reads and validates. Throws IoError (cannot open) or DataError naming the file and the
 // first wrong field ("FILE: /carpaint/ct_spreads: value 1.3 at index 1 out of range (0, 1)").
+// A damaged file is a DataError whose message says "damaged" (a content checksum that does
+// not match, an HDF5 checksum that fails, a size no paint has); never a crash.
 AxfPaint read_axf_file(const std::filesystem::path& path);
 
 // Every problem found, each naming the HDF5 path of the field.
 struct AxfValidation {
   std::string format;                 // kAxfFormat or kAxfLibraryFormat (when readable)
+  int format_version = 0;             // as the file states it (0 when unreadable)
   std::vector<std::string> paints;    // names of the paints found
   std::vector<std::string> problems;  // empty: valid
   bool ok() const { return problems.empty(); }
