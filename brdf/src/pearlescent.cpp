@@ -11,7 +11,6 @@
 namespace paintlab::brdf {
 
 namespace {
-constexpr double kPi = std::numbers::pi;
 using Cx = std::complex<double>;
 
 // Airy reflectance of medium n0 | film n1 (thickness d_nm) | n2 at incidence cosine c0
@@ -24,7 +23,7 @@ double thin_film_reflectance(double n0, double n1, double n2, double d_nm, doubl
   const Cx rp01 = (n1 * c0 - n0 * c1) / (n1 * c0 + n0 * c1);
   const Cx rs12 = (n1 * c1 - n2 * c2) / (n1 * c1 + n2 * c2);
   const Cx rp12 = (n2 * c1 - n1 * c2) / (n2 * c1 + n1 * c2);
-  const Cx phase = std::exp(Cx(0.0, 2.0) * (2.0 * kPi * n1 * d_nm / lambda_nm) * c1);
+  const Cx phase = std::exp(Cx(0.0, 2.0) * (2.0 * std::numbers::pi * n1 * d_nm / lambda_nm) * c1);
   const Cx rs = (rs01 + rs12 * phase) / (1.0 + rs01 * rs12 * phase);
   const Cx rp = (rp01 + rp12 * phase) / (1.0 + rp01 * rp12 * phase);
   return 0.5 * (std::norm(rs) + std::norm(rp));
@@ -33,7 +32,7 @@ double thin_film_reflectance(double n0, double n1, double n2, double d_nm, doubl
 // Beckmann distribution of normals normalised with 1/pi: integral of D cos(theta) = 1.
 double beckmann_normalised(double m, double cos_theta) {
   if (cos_theta <= 0.0) return 0.0;
-  return beckmann_d(m, cos_theta) / kPi;
+  return beckmann_d(m, cos_theta) / std::numbers::pi;
 }
 }  // namespace
 
@@ -119,7 +118,7 @@ LayeredPearlescent::Terms LayeredPearlescent::terms(const Vec3& wi, const Vec3& 
   // (diffuse light crosses the layer at 60 deg on average: twice the vertical depth).
   const Rgb layer_diffuse = (-2.0 * 2.0 * (p_.absorption + p_.coverage * p_.opacity)).exp();
   const Rgb series = 1.0 / (1.0 - p_.substrate * internal_reflectance_ * layer_diffuse);
-  t.shade = transmit * p_.substrate / kPi * (-depth).exp() * series;
+  t.shade = transmit * p_.substrate / std::numbers::pi * (-depth).exp() * series;
   return t;
 }
 

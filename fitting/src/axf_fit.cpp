@@ -23,10 +23,9 @@ namespace paintlab::fit {
 
 namespace {
 
-constexpr double kInvPi = 1.0 / std::numbers::pi;
-constexpr double kHalfPi = std::numbers::pi / 2.0;
-constexpr int kMaxLobes = 3;
-constexpr double kMinModelValue = 1e-30;
+constexpr double kAxfHalfPi = std::numbers::pi / 2.0;
+constexpr int kMaxAxfLobes = 3;
+constexpr double kMinAxfModelValue = 1e-30;
 
 // One bin of the achromatic stage: directions at the mean coordinates, the mean of the
 // channels, its log target and weight.
@@ -47,8 +46,8 @@ struct AchroBin {
 // Parameters in two blocks: (eta, a, then per lobe s, alpha) and the lobes' F0 (held
 // fixed unless AxfFitOptions::fit_f0).
 struct AxfVector {
-  std::array<double, 2 + 2 * kMaxLobes> main{};
-  std::array<double, kMaxLobes> f0{};
+  std::array<double, 2 + 2 * kMaxAxfLobes> main{};
+  std::array<double, kMaxAxfLobes> f0{};
   double& eta() { return main[0]; }
   double eta() const { return main[0]; }
   double& a() { return main[1]; }
@@ -72,13 +71,13 @@ struct AxfChunk {
       for (std::uint32_t mi = 0; mi < b.member_count; ++mi) {
         const AchroMember& m = b.members[mi];
         const brdf::CoatGeometry<T> g = brdf::coat_geometry<T>(p[0], m.wi, m.wo);
-        T fm = p[1] * T(kInvPi);
+        T fm = p[1] * T(std::numbers::inv_pi);
         for (int k = 0; k < K; ++k)
           fm += p[2 + 2 * k] *
                 brdf::ct_lobe<T>(p[3 + 2 * k], f0[k], g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
         f += T(m.weight) * fm * g.transmittance;
       }
-      if (!(f > T(kMinModelValue))) return false;
+      if (!(f > T(kMinAxfModelValue))) return false;
       residuals[q] = (log(f) - T(b.target)) * T(b.inv_sigma);
     }
     return true;
@@ -90,7 +89,7 @@ struct AxfChunk {
 double achromatic(const AxfVector& p, int K, const AchroMember& m, brdf::CoatGeometry<double>* geometry = nullptr) {
   const brdf::CoatGeometry<double> g = brdf::coat_geometry<double>(p.eta(), m.wi, m.wo);
   if (geometry) *geometry = g;
-  double f = p.a() * kInvPi;
+  double f = p.a() * std::numbers::inv_pi;
   for (int k = 0; k < K; ++k)
     f += p.s(k) *
          brdf::ct_lobe<double>(p.alpha(k), p.f0[k], g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
@@ -142,15 +141,15 @@ void build(Problem& pr, const std::vector<const AchroBin*>& bins, AxfVector& v, 
   if (!o.fit_f0) pr.problem.SetParameterBlockConstant(f0);
 }
 
-struct Solved {
+struct AxfSolved {
   AxfVector p{};
   ceres::Solver::Summary summary;
   std::size_t blocks = 0;
 };
 
-Solved solve(const std::vector<const AchroBin*>& bins, const AxfVector& start, int K, const AxfFitOptions& o,
+AxfSolved solve_axf(const std::vector<const AchroBin*>& bins, const AxfVector& start, int K, const AxfFitOptions& o,
              int max_iterations) {
-  Solved out;
+  AxfSolved out;
   out.p = start;
   Problem pr;
   build(pr, bins, out.p, K, o);
@@ -185,7 +184,7 @@ std::vector<Start> grid_starts(const std::vector<const AchroBin*>& bins, int K, 
     for (std::uint32_t mi = 0; mi < b->member_count; ++mi) {
       const AchroMember& m = b->members[mi];
       const brdf::CoatGeometry<double> g = brdf::coat_geometry<double>(o.ior_start, m.wi, m.wo);
-      phi[0] += m.weight * g.transmittance * kInvPi;
+      phi[0] += m.weight * g.transmittance * std::numbers::inv_pi;
       for (int k = 0; k < G; ++k)
         phi[1 + k] += m.weight * g.transmittance *
                       brdf::ct_lobe<double>(grid[k], o.f0, g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
@@ -260,7 +259,7 @@ void AxfFitOptions::check() const {
   auto fail = [](const std::string& key, const std::string& value, const char* rule) {
     throw DataError(fmt::format("AxfFitOptions::{} = {}. Violated constraint: {}", key, value, rule));
   };
-  if (lobes < 1 || lobes > kMaxLobes) fail("lobes", std::to_string(lobes), "1..3");
+  if (lobes < 1 || lobes > kMaxAxfLobes) fail("lobes", std::to_string(lobes), "1..3");
   if (grid_starts < 1) fail("grid_starts", std::to_string(grid_starts), ">= 1");
   if (random_starts < 0) fail("random_starts", std::to_string(random_starts), ">= 0");
   if (max_iterations < 1) fail("max_iterations", std::to_string(max_iterations), ">= 1");
@@ -395,11 +394,11 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
   double mean_value = 0;
   for (const AchroBin* a : sub) mean_value += a->value;
   mean_value /= static_cast<double>(sub.size());
-  Solved best;
+  AxfSolved best;
   double best_cost = std::numeric_limits<double>::infinity();
   for (Start& s : starts) {
     s.p.a() = std::max(s.p.a(), 1e-4 * std::numbers::pi * mean_value);  // a positive model everywhere
-    Solved r = solve(sub, s.p, K, o, std::max(10, o.max_iterations / 3));
+    AxfSolved r = solve_axf(sub, s.p, K, o, std::max(10, o.max_iterations / 3));
     StartReport rep;
     rep.origin = s.origin;
     rep.initial_cost = r.summary.initial_cost;
@@ -416,7 +415,7 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
   }
   if (!std::isfinite(best_cost)) throw JobError("the AxF car-paint fit failed from every start (no usable solution)");
 
-  Solved final_solve = solve(all, best.p, K, o, o.max_iterations);
+  AxfSolved final_solve = solve_axf(all, best.p, K, o, o.max_iterations);
   const AxfVector p = final_solve.p;
   sum.converged = final_solve.summary.termination_type == ceres::CONVERGENCE;
   sum.termination = fmt::format("{}: {}", ceres::TerminationTypeToString(final_solve.summary.termination_type),
@@ -488,7 +487,7 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
     const AchroBin& a = achro[q];
     const double model = achromatic(p, K, a);
     achro_model[q] = model;
-    if (!(model > kMinModelValue)) continue;
+    if (!(model > kMinAxfModelValue)) continue;
     // The point's colour ratio, splatted at each member bin's (theta_hbar, theta_ibar).
     for (std::uint32_t mi = 0; mi < a.member_count; ++mi) {
       const AchroMember& m = a.members[mi];
@@ -496,8 +495,8 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
       achromatic(p, K, m, &g);
       const double th = std::acos(std::clamp(g.n_dot_hbar, -1.0, 1.0));
       const double ti = std::acos(std::clamp(g.hbar_dot_obar, -1.0, 1.0));
-      const double x = std::clamp(th / kHalfPi * nh - 0.5, 0.0, nh - 1.0);
-      const double y = std::clamp(ti / kHalfPi * ni - 0.5, 0.0, ni - 1.0);
+      const double x = std::clamp(th / kAxfHalfPi * nh - 0.5, 0.0, nh - 1.0);
+      const double y = std::clamp(ti / kAxfHalfPi * ni - 0.5, 0.0, ni - 1.0);
       const int x0 = std::min(static_cast<int>(x), nh - 2), y0 = std::min(static_cast<int>(y), ni - 2);
       const double fx = x - x0, fy = y - y0;
       for (int dx = 0; dx < 2; ++dx)

@@ -30,7 +30,6 @@ using detail::roughness_grid;
 using detail::subsample;
 using detail::thread_count;
 
-constexpr double kInvPi = 1.0 / std::numbers::pi;
 constexpr int kMaxLobes = 3;
 constexpr double kMinModelValue = 1e-30;  // 1/sr
 
@@ -94,7 +93,7 @@ class CtChunkCost final : public ceres::CostFunction {
         const double w = b.inv_sigma[c];
         double f = 0.0, g = 0.0;  // g: d residual / d f
         if (w != 0.0) {
-          f = lin[0] * kInvPi;
+          f = lin[0] * std::numbers::inv_pi;
           for (int l = 0; l < n_; ++l) f += lin[1 + l] * value[l];
           if (linear_) {
             if (!std::isfinite(f)) return false;
@@ -118,7 +117,7 @@ class CtChunkCost final : public ceres::CostFunction {
             std::fill(jl, jl + nlin, 0.0);
             continue;
           }
-          jl[0] = kInvPi * g;
+          jl[0] = std::numbers::inv_pi * g;
           for (int l = 0; l < n_; ++l) jl[1 + l] = value[l] * g;
         }
         if (jacobians[3]) {
@@ -228,7 +227,7 @@ std::vector<GridStart> grid_starts(const FitData& data, const std::vector<const 
   }
   Eigen::VectorXd phi(G + 1);
   for (const FitBin* b : bins) {
-    phi[0] = kInvPi;
+    phi[0] = std::numbers::inv_pi;
     for (int g = 0; g < G; ++g) {
       phi[1 + g] = 0.0;
       for (const FitMember* mb = members_begin(data, *b); mb != members_end(data, *b); ++mb)
@@ -295,7 +294,7 @@ std::vector<GridStart> warm_starts(const FitData& data, const std::vector<const 
   Eigen::VectorXd phi(cols_total);
   for (const FitBin* b : bins) {
     phi.setZero();
-    phi[0] = kInvPi;
+    phi[0] = std::numbers::inv_pi;
     for (const FitMember* mb = members_begin(data, *b); mb != members_end(data, *b); ++mb) {
       for (int l = 0; l < W; ++l) phi[1 + l] += mb->weight * brdf::ct_lobe(warm.lobes[l].m, warm.lobes[l].r, mb->geometry);
       for (int g = 0; g < G; ++g) phi[1 + W + g] += mb->weight * brdf::ct_lobe(grid[g], 0.5, mb->geometry);
@@ -455,7 +454,7 @@ std::vector<double> evaluate_cook_torrance(const FitData& data, const brdf::Cook
   std::vector<double> out(3 * data.bins.size());
   for (std::size_t q = 0; q < data.bins.size(); ++q) {
     const FitBin& b = data.bins[q];
-    brdf::Rgb f = p.kd * kInvPi;
+    brdf::Rgb f = p.kd * std::numbers::inv_pi;
     for (const FitMember* mb = members_begin(data, b); mb != members_end(data, b); ++mb)
       for (const brdf::CtLobe& l : p.lobes) f += mb->weight * l.ks * brdf::ct_lobe(l.m, l.r, mb->geometry);
     for (int c = 0; c < 3; ++c) out[3 * q + c] = f[c];

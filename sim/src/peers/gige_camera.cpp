@@ -24,7 +24,7 @@ namespace paintlab::sim {
 
 namespace {
 
-constexpr const char* kName = "sim camera (GigE Vision fake, 127.0.0.1)";
+constexpr const char* kCameraName = "sim camera (GigE Vision fake, 127.0.0.1)";
 
 // Registers of Aravis' fake camera (arvfakecamera.h) and ours: the fake serves every
 // address below 0x10000 from its memory; BlackLevel lives in a free word at 0x8000.
@@ -264,7 +264,7 @@ int lock_gige_port(double timeout_s) {
     if (errno != EWOULDBLOCK && errno != EINTR) break;
     if (std::chrono::steady_clock::now() > deadline) {
       ::close(fd);
-      throw DeviceError(kName, fmt::format("another simulated camera held 127.0.0.1:3956 for {:.0f} s ({})", timeout_s, path),
+      throw DeviceError(kCameraName, fmt::format("another simulated camera held 127.0.0.1:3956 for {:.0f} s ({})", timeout_s, path),
                         true);
     }
     if (!said) {
@@ -287,7 +287,7 @@ int lock_gige_port(double timeout_s) {
     if (free || probe < 0) break;
     if (std::chrono::steady_clock::now() > deadline) {
       ::close(fd);
-      throw DeviceError(kName, fmt::format("127.0.0.1:3956 stayed taken by another program for {:.0f} s", timeout_s), true);
+      throw DeviceError(kCameraName, fmt::format("127.0.0.1:3956 stayed taken by another program for {:.0f} s", timeout_s), true);
     }
     if (!said) {
       spdlog::info("sim camera: 127.0.0.1:3956 is taken by another program; waiting for it to stop");
@@ -325,19 +325,19 @@ void GigeCamera::start() {
   // The fake reads its XML from a file when it is created.
   char path[] = "/tmp/paintlab-sim-camera-XXXXXX.xml";
   int fd = mkstemps(path, 4);
-  if (fd < 0) throw DeviceError(kName, "cannot write the GenICam XML to /tmp", false);
+  if (fd < 0) throw DeviceError(kCameraName, "cannot write the GenICam XML to /tmp", false);
   std::string xml = genicam_xml();
   bool ok = write(fd, xml.data(), xml.size()) == static_cast<ssize_t>(xml.size());
   close(fd);
   if (!ok) {
     unlink(path);
-    throw DeviceError(kName, "cannot write the GenICam XML to /tmp", false);
+    throw DeviceError(kCameraName, "cannot write the GenICam XML to /tmp", false);
   }
   ArvGvFakeCamera* gv = arv_gv_fake_camera_new_full("127.0.0.1", options_.serial.c_str(), path);
   unlink(path);
   if (!gv || !arv_gv_fake_camera_is_running(gv)) {
     if (gv) g_object_unref(gv);
-    throw DeviceError(kName, "cannot serve GigE Vision on 127.0.0.1:3956 (port taken by another fake camera?)", true);
+    throw DeviceError(kCameraName, "cannot serve GigE Vision on 127.0.0.1:3956 (port taken by another fake camera?)", true);
   }
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(gv);
   auto w = static_cast<std::uint32_t>(options_.width), h = static_cast<std::uint32_t>(options_.height);

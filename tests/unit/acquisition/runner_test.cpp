@@ -51,7 +51,7 @@ SessionManifest plan(int positions = 7) {
   return m;
 }
 
-struct Rig {
+struct RunnerRig {
   TestClock clock;
   TestTable table{clock};
   TestLight light;
@@ -77,7 +77,7 @@ void expect_complete(const SessionDir& s) {
 TEST(Runner, FullSweepJournalsEveryPosition) {
   test::TempDir d;
   SessionDir s = SessionDir::create(d / "s", plan());
-  Rig rig;
+  RunnerRig rig;
   std::atomic<bool> stop{false};
   Runner runner(s, rig.handles(), merge_mean);
   RunSummary sum = runner.run(stop);
@@ -107,7 +107,7 @@ TEST(Runner, FullSweepJournalsEveryPosition) {
 TEST(Runner, SweepTimeIsCloseToThePhysicalMinimum) {
   test::TempDir d;
   SessionDir s = SessionDir::create(d / "s", plan(19));
-  Rig rig;
+  RunnerRig rig;
   std::atomic<bool> stop{false};
   RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
   ASSERT_TRUE(sum.complete);
@@ -121,7 +121,7 @@ TEST(Runner, InterruptStopsSafelyAndResumeCompletes) {
   SessionDir s = SessionDir::create(d / "s", plan());
   std::atomic<bool> stop{false};
   {
-    Rig rig;
+    RunnerRig rig;
     rig.camera.on_capture = [&](int n) {
       if (n == 10) stop = true;  // Ctrl-C in the middle of position 3's bracket
     };
@@ -136,7 +136,7 @@ TEST(Runner, InterruptStopsSafelyAndResumeCompletes) {
   EXPECT_EQ(st.finished_count(), 3);
   EXPECT_EQ(st.todo, (std::vector<int>{3, 4, 5, 6}));
   stop = false;
-  Rig rig2;
+  RunnerRig rig2;
   RunSummary sum2 = Runner(s, rig2.handles(), merge_mean).run(stop);
   EXPECT_TRUE(sum2.complete);
   EXPECT_EQ(sum2.finished_before, 3);
@@ -148,7 +148,7 @@ TEST(Runner, InterruptStopsSafelyAndResumeCompletes) {
 TEST(Runner, RetryableCameraFaultIsRetried) {
   test::TempDir d;
   SessionDir s = SessionDir::create(d / "s", plan(3));
-  Rig rig;
+  RunnerRig rig;
   rig.camera.lose_frames = 2;
   rig.table.fail_moves = 1;
   std::atomic<bool> stop{false};
@@ -163,7 +163,7 @@ TEST(Runner, PersistentFaultStopsSafelyWithAResumableJournal) {
   SessionDir s = SessionDir::create(d / "s", plan(5));
   std::atomic<bool> stop{false};
   {
-    Rig rig;
+    RunnerRig rig;
     rig.camera.on_capture = [&](int n) {
       if (n == 7) rig.camera.gone = true;
     };
@@ -175,13 +175,13 @@ TEST(Runner, PersistentFaultStopsSafelyWithAResumableJournal) {
     EXPECT_EQ(sum.measured, 2);
   }
   {
-    Rig rig;
+    RunnerRig rig;
     rig.camera.lose_frames = 100;  // never cured: retries exhausted
     RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
     EXPECT_TRUE(sum.device_fault);
     EXPECT_THAT(sum.stop_reason, HasSubstr("after 3 retries"));
   }
-  Rig rig;
+  RunnerRig rig;
   EXPECT_TRUE(Runner(s, rig.handles(), merge_mean).run(stop).complete);
   expect_complete(s);
 }
@@ -189,14 +189,14 @@ TEST(Runner, PersistentFaultStopsSafelyWithAResumableJournal) {
 TEST(Runner, StuckLedStopsTheRun) {
   test::TempDir d;
   SessionDir s = SessionDir::create(d / "s", plan(3));
-  Rig rig;
+  RunnerRig rig;
   rig.light.stuck = true;  // never switches on
   std::atomic<bool> stop{false};
   RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
   EXPECT_TRUE(sum.device_fault);
   EXPECT_THAT(sum.stop_reason, HasSubstr("did not switch on"));
   EXPECT_EQ(s.inspect().finished_count(), 0);
-  Rig rig2;
+  RunnerRig rig2;
   rig2.camera.on_capture = [&](int n) {
     if (n == 1) rig2.light.stuck = true;  // stuck on during the bracket
   };
@@ -210,7 +210,7 @@ TEST(Runner, ResumeMeasuresMissingAndCorruptPositionsAgain) {
   SessionDir s = SessionDir::create(d / "s", plan(5));
   std::atomic<bool> stop{false};
   {
-    Rig rig;
+    RunnerRig rig;
     ASSERT_TRUE(Runner(s, rig.handles(), merge_mean).run(stop).complete);
   }
   fs::remove(s.hdr_path(1));
@@ -220,7 +220,7 @@ TEST(Runner, ResumeMeasuresMissingAndCorruptPositionsAgain) {
   ASSERT_EQ(st.problems.size(), 2u);
   EXPECT_THAT(st.problems[0], HasSubstr("hdr/pos_001.exr: missing"));
   EXPECT_THAT(st.problems[1], HasSubstr("hdr/pos_003.exr: checksum does not match"));
-  Rig rig;
+  RunnerRig rig;
   RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
   EXPECT_TRUE(sum.complete);
   EXPECT_EQ(sum.measured, 2);
@@ -233,7 +233,7 @@ TEST(Runner, TornJournalAndOrphanFileAreHandled) {
   SessionDir s = SessionDir::create(d / "s", plan(4));
   std::atomic<bool> stop{false};
   {
-    Rig rig;
+    RunnerRig rig;
     rig.camera.on_capture = [&](int n) {
       if (n == 6) stop = true;
     };
@@ -243,7 +243,7 @@ TEST(Runner, TornJournalAndOrphanFileAreHandled) {
   fs::copy_file(s.hdr_path(0), s.hdr_path(2));
   { std::ofstream(s.dir() / "journal.jsonl", std::ios::app) << "{\"index\": 2, \"angle"; }
   stop = false;
-  Rig rig;
+  RunnerRig rig;
   RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
   EXPECT_TRUE(sum.complete);
   expect_complete(s);
@@ -263,7 +263,7 @@ TEST(Runner, KilledAtRandomPointsResumesToTheSameSession) {
     ASSERT_GE(pid, 0);
     if (pid == 0) {
       SessionDir s = SessionDir::open(d / "s");
-      Rig rig;
+      RunnerRig rig;
       rig.camera.on_capture = [&](int) { usleep(300); };
       std::atomic<bool> stop{false};
       Runner(s, rig.handles(), merge_mean).run(stop);
@@ -275,7 +275,7 @@ TEST(Runner, KilledAtRandomPointsResumesToTheSameSession) {
     waitpid(pid, &status, 0);
   }
   SessionDir s = SessionDir::open(d / "s");
-  Rig rig;
+  RunnerRig rig;
   std::atomic<bool> stop{false};
   RunSummary sum = Runner(s, rig.handles(), merge_mean).run(stop);
   EXPECT_TRUE(sum.complete);
@@ -309,7 +309,7 @@ TEST(Session, RefusesAFolderHoldingAnotherSession) {
 TEST(Runner, BadOptionsAreRefusedBeforeAnythingMoves) {
   test::TempDir d;
   SessionDir s = SessionDir::create(d / "s", plan());
-  Rig rig;
+  RunnerRig rig;
   auto refused = [&](auto change) {
     RunnerOptions o;
     change(o);

@@ -18,7 +18,6 @@ using namespace paintlab::brdf;
 using ::testing::HasSubstr;
 
 namespace {
-constexpr double kPi = std::numbers::pi;
 
 struct CsvRow {
   double theta_in_deg, phi_in_deg, theta_out_deg, phi_out_deg;
@@ -48,7 +47,7 @@ std::vector<CsvRow> read_reference_rows() {
   return rows;
 }
 
-double rad(double deg) { return deg * kPi / 180.0; }
+double rad(double deg) { return deg * std::numbers::pi / 180.0; }
 }  // namespace
 
 TEST(MerlIndex, ReproducesEveryReferenceRow) {
@@ -65,7 +64,7 @@ TEST(MerlIndex, ReproducesEveryReferenceRow) {
     EXPECT_NEAR(hd.theta_d, r.theta_diff, 2e-9) << where;
     // The angles print with 9 decimals; compare phi only where it is well defined.
     if (hd.theta_h > 1e-6) {
-      EXPECT_NEAR(std::remainder(hd.phi_h - r.phi_half, 2 * kPi), 0.0, 2e-9) << where;
+      EXPECT_NEAR(std::remainder(hd.phi_h - r.phi_half, 2 * std::numbers::pi), 0.0, 2e-9) << where;
     }
     const bool same = b.theta_h == r.ih && b.theta_d == r.id && b.phi_d == r.ip &&
                       static_cast<long>(merl_flat_index(b)) == r.index;
@@ -80,15 +79,15 @@ TEST(MerlIndex, ReproducesEveryReferenceRow) {
 
 TEST(MerlIndex, FormulaOnKnownAngles) {
   // i = floor(sqrt(theta_h / (pi/2)) * 90): theta_h = (pi/2) / 4 -> sqrt = 0.5 -> 45.
-  EXPECT_EQ(merl_theta_h_index(kPi / 8 + 1e-12), 45);
+  EXPECT_EQ(merl_theta_h_index(std::numbers::pi / 8 + 1e-12), 45);
   EXPECT_EQ(merl_theta_h_index(0.0), 0);
   EXPECT_EQ(merl_theta_h_index(-0.1), 0);
-  EXPECT_EQ(merl_theta_h_index(kPi / 2), 89);  // clamped
-  EXPECT_EQ(merl_theta_d_index(kPi / 4 + 1e-12), 45);
+  EXPECT_EQ(merl_theta_h_index(std::numbers::pi / 2), 89);  // clamped
+  EXPECT_EQ(merl_theta_d_index(std::numbers::pi / 4 + 1e-12), 45);
   EXPECT_EQ(merl_theta_d_index(2.0), 89);
-  EXPECT_EQ(merl_phi_d_index(0.5 * kPi + 1e-12), 90);
-  EXPECT_EQ(merl_phi_d_index(-0.5 * kPi + 1e-12), 90);  // phi_d and phi_d + pi share a bin
-  EXPECT_EQ(merl_phi_d_index(kPi), 179);                // clamped as in the reference
+  EXPECT_EQ(merl_phi_d_index(0.5 * std::numbers::pi + 1e-12), 90);
+  EXPECT_EQ(merl_phi_d_index(-0.5 * std::numbers::pi + 1e-12), 90);  // phi_d and phi_d + pi share a bin
+  EXPECT_EQ(merl_phi_d_index(std::numbers::pi), 179);                // clamped as in the reference
   EXPECT_EQ(merl_flat_index({1, 2, 3}), 3u + 180u * (2u + 90u * 1u));
   for (std::size_t flat : {std::size_t{0}, std::size_t{12345}, kMerlBins - 1}) {
     EXPECT_EQ(merl_flat_index(merl_bin_of_flat(flat)), flat);
@@ -212,12 +211,12 @@ TEST(MerlTable, LookupIsExactAtCentresAndTrilinearBetween) {
   std::uniform_real_distribution<double> u(0, 1);
   for (int n = 0; n < 1000; ++n) {
     const double cu = 0.5 + 89 * u(rng), cv = 0.5 + 89 * u(rng), cw = 0.5 + 179 * u(rng);
-    HalfDiff hd{(cu / 90) * (cu / 90) * kPi / 2, 0.0, cv / 90 * kPi / 2, cw / 180 * kPi};
+    HalfDiff hd{(cu / 90) * (cu / 90) * std::numbers::pi / 2, 0.0, cv / 90 * std::numbers::pi / 2, cw / 180 * std::numbers::pi};
     auto v = t.lookup(hd);
     ASSERT_TRUE(v.has_value());
     ASSERT_NEAR((*v)[0], field(cu, cv, cw), 1e-9);
     // phi_d and phi_d - pi are the same point.
-    hd.phi_d -= kPi;
+    hd.phi_d -= std::numbers::pi;
     ASSERT_NEAR((*t.lookup(hd))[1], field(cu, cv, cw), 1e-9);
   }
   // Across the phi_d seam the lookup blends bin 179 and bin 0.

@@ -24,17 +24,16 @@ using namespace paintlab::brdf;
 using test_support::directional_albedo;
 
 namespace {
-constexpr double kPi = std::numbers::pi;
 
 Vec3 random_upper(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0, 1);
-  const double z = 0.02 + 0.98 * u(rng), phi = 2 * kPi * u(rng);
+  const double z = 0.02 + 0.98 * u(rng), phi = 2 * std::numbers::pi * u(rng);
   const double s = std::sqrt(1 - z * z);
   return {s * std::cos(phi), s * std::sin(phi), z};
 }
 
 Vec3 from_angles(double theta_deg, double phi_deg = 0) {
-  const double t = theta_deg * kPi / 180, p = phi_deg * kPi / 180;
+  const double t = theta_deg * std::numbers::pi / 180, p = phi_deg * std::numbers::pi / 180;
   return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
 }
 
@@ -150,12 +149,12 @@ namespace {
 Rgb ct_reference(const Rgb& kd, const std::vector<CtLobe>& lobes, const Vec3& wi, const Vec3& wo) {
   const Vec3 h = (wi + wo).normalized();
   const double nh = h.z(), hv = h.dot(wo), th = std::acos(nh);
-  Rgb f = kd / kPi;
+  Rgb f = kd / std::numbers::pi;
   for (const auto& l : lobes) {
     const double d = std::exp(-std::pow(std::tan(th), 2) / (l.m * l.m)) / (l.m * l.m * std::pow(std::cos(th), 4));
     const double fr = l.r + (1 - l.r) * std::pow(1 - hv, 5);
     const double g = std::min({1.0, 2 * nh * wo.z() / hv, 2 * nh * wi.z() / hv});
-    f += l.ks * fr * d * g / (kPi * wi.z() * wo.z());
+    f += l.ks * fr * d * g / (std::numbers::pi * wi.z() * wo.z());
   }
   return f;
 }
@@ -180,7 +179,7 @@ TEST(CookTorrance, MatchesModelsMdEquationOne) {
   }
   // A hand-checked value: normal incidence and view, theta_h = 0: D = 1/m^2, F = r, G = 1.
   const CookTorrance one(Rgb::Zero(), {{Rgb::Ones(), 0.5, 0.25}});
-  EXPECT_NEAR(one.eval(Vec3::UnitZ(), Vec3::UnitZ())[0], 0.25 * 4.0 / kPi, 1e-12);
+  EXPECT_NEAR(one.eval(Vec3::UnitZ(), Vec3::UnitZ())[0], 0.25 * 4.0 / std::numbers::pi, 1e-12);
 }
 
 TEST(CookTorrance, LobeTemplateWorksWithCeresJets) {
@@ -224,7 +223,7 @@ TEST(CarPaint, ClearCoatRefractsAndTransmits) {
   const AxfCarPaint axf(p);
   const Vec3 wi = from_angles(50, 0), wo = from_angles(20, 180);
   const Vec3 ib = refract_into_coat(wi, 1.5), ob = refract_into_coat(wo, 1.5);
-  EXPECT_NEAR(std::sin(std::acos(ib.z())), std::sin(50 * kPi / 180) / 1.5, 1e-12);  // Snell
+  EXPECT_NEAR(std::sin(std::acos(ib.z())), std::sin(50 * std::numbers::pi / 180) / 1.5, 1e-12);  // Snell
   const Vec3 hb = (ib + ob).normalized();
   const Rgb chi = p.chi.eval(std::acos(hb.z()), std::acos(hb.dot(ib)));
   const double t = (1 - fresnel_dielectric(wi.z(), 1.5)) * (1 - fresnel_dielectric(wo.z(), 1.5));
@@ -236,7 +235,7 @@ TEST(CarPaint, ClearCoatRefractsAndTransmits) {
 
 TEST(CarPaint, ColourTableSamplingHasHalfTexelOffsets) {
   const ColourTable chi = example_axf().chi;  // 3 theta_h x 4 theta_i
-  const double hp = kPi / 2;
+  const double hp = std::numbers::pi / 2;
   // Sample (a, b) sits at theta_h = (a + 0.5) / 3 * pi/2, theta_i = (b + 0.5) / 4 * pi/2.
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 4; ++b)
@@ -254,7 +253,7 @@ TEST(Pearlescent, FlakeColourShiftsWithAngle) {
   const auto spec = shipped("pearlescent");
   const LayeredPearlescent pearl(*spec.pearlescent());
   // Chromaticity b / g of the flake reflectance: different near and far from retro.
-  const Rgb near = pearl.flake_reflectance(5 * kPi / 180), far = pearl.flake_reflectance(60 * kPi / 180);
+  const Rgb near = pearl.flake_reflectance(5 * std::numbers::pi / 180), far = pearl.flake_reflectance(60 * std::numbers::pi / 180);
   EXPECT_GT(std::abs(far[2] / far[1] - near[2] / near[1]), 0.5);
   // And so the glitter term of the BRDF changes colour between geometries.
   const Rgb g1 = pearl.eval_glitter(from_angles(10, 0), from_angles(10, 180));
@@ -305,7 +304,7 @@ TEST(MerlFromPaint, AgreesWithThePaintWithinBinningError) {
   std::vector<double> rel;
   for (int n = 0; n < 20000; ++n) {
     const Vec3 wi = random_upper(rng), wo = random_upper(rng);
-    if (wi.z() < std::cos(70 * kPi / 180) || wo.z() < std::cos(70 * kPi / 180)) continue;
+    if (wi.z() < std::cos(70 * std::numbers::pi / 180) || wo.z() < std::cos(70 * std::numbers::pi / 180)) continue;
     const Rgb f = ct.eval(wi, wo);
     rel.push_back(((merl.eval(wi, wo) - f).abs() / f).maxCoeff());
   }

@@ -53,7 +53,7 @@ std::string replace(std::string s, const std::string& from, const std::string& t
   return s;
 }
 
-PaintSpec example_axf() {
+PaintSpec example_axf_spec() {
   PaintSpec s;
   s.name = "axf-blue";
   AxfCarPaintParams p;
@@ -91,7 +91,7 @@ TEST(PaintFile, TomlRoundTripForEveryModel) {
   test::TempDir d;
   std::vector<PaintSpec> specs;
   specs.push_back(parse_paint(ConfigTable::parse_string(kGoodCt, "p.toml")));
-  specs.push_back(example_axf());
+  specs.push_back(example_axf_spec());
   for (const char* n : {"silver-metallic", "solid-blue", "pearlescent"})
     specs.push_back(load_paint_file(test::source_dir() / "paints" / (std::string(n) + ".toml")));
   PaintSpec merl;
@@ -122,7 +122,7 @@ TEST(PaintFile, JsonRoundTripAndContractShape) {
   EXPECT_EQ(j["lobes"][1]["m"], 0.013);
   EXPECT_EQ(j["lobes"][0]["r"], 0.9);
   EXPECT_EQ(j["flakes"]["lobes"], Json::parse("[1]"));
-  for (const PaintSpec& s : {ct, example_axf(),
+  for (const PaintSpec& s : {ct, example_axf_spec(),
                              load_paint_file(test::source_dir() / "paints/pearlescent.toml")}) {
     const Json js = Json::parse(to_json(s).dump());  // through text
     EXPECT_EQ(paint_from_json(js, "x.json"), s);
@@ -154,7 +154,7 @@ TEST(PaintFile, JsonErrorsNameWhereAndKey) {
   bad["flakes"]["lobes"] = Json::array({3});
   EXPECT_THAT(data_error(bad), HasSubstr("key 'flakes.lobes': element 0 must be in [1, 2] (got 3)"));
   EXPECT_THAT(data_error(Json::array()), HasSubstr("summary.json: expected a paint object"));
-  PaintSpec s = example_axf();
+  PaintSpec s = example_axf_spec();
   std::get<AxfCarPaintParams>(s.params).lobes[0].spread = 0;
   try {
     check_paint(s);
@@ -216,7 +216,7 @@ TEST(PaintFile, EveryKindOfBadFileNamesFileLineAndKey) {
 }
 
 TEST(PaintFile, BadFilesOfTheOtherModels) {
-  const std::string axf = to_toml(example_axf());
+  const std::string axf = to_toml(example_axf_spec());
   // chi must have 3 x theta_h_samples x theta_i_samples numbers.
   EXPECT_THAT(config_error(replace(axf, "theta_i_samples = 3", "theta_i_samples = 2")),
               HasSubstr("key 'chi.rgb': expected 12 values, got 18"));

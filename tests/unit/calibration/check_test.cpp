@@ -10,6 +10,7 @@
 #include "paintlab/calibration/check.h"
 #include "paintlab/core/error.h"
 #include "sim_scenes.h"
+#include "sim_paints.h"
 #include "test_util.h"
 
 using namespace paintlab;
@@ -19,16 +20,6 @@ using namespace paintlab::calib::testing;
 namespace {
 
 const Json kDevices = {{"camera", "SIM-CAM-0001"}, {"turntable", "sim-modbus"}, {"light", "sim-led"}};
-
-sim::SimPaint glossy_black() {
-  brdf::CtLobe lobe;
-  lobe.ks = brdf::Rgb(0.6, 0.6, 0.6);
-  lobe.m = 0.03;
-  lobe.r = 0.05;
-  sim::SimPaint p;
-  p.brdf = std::make_shared<brdf::CookTorrance>(brdf::Rgb(0.01, 0.01, 0.01), std::vector<brdf::CtLobe>{lobe});
-  return p;
-}
 
 SphereFit fit_sphere_now(sim::SimWorld& w, const CameraModel& cam) {
   std::vector<SphereImage> images;
@@ -134,7 +125,7 @@ TEST_F(CheckSim, GoodRigPassesEveryCheckAndWritesCheckJson) {
   const RigCalibration cal = calibration();  // keeps the sphere below alive
   const SphereFit& cal_sphere = *cal.sphere();
   for (double a : {-60.0, 0.0, 60.0}) {
-    HighlightImage im{a, "glossy", expose_linear(*world_, world_->render_with(glossy_black(), a, true), 0.8, nullptr, nullptr, 1.0)};
+    HighlightImage im{a, "glossy", expose_linear(*world_, world_->render_with(test::glossy_black_sphere(), a, true), 0.8, nullptr, nullptr, 1.0)};
     live.highlights.push_back(find_highlight(im, *cam_, cal_sphere, rig_->geometry));
   }
   std::vector<ImageF> repeated = {rate_image(*world_, sim::reference_paint(0.99), 0.0, exposure_),
@@ -217,7 +208,7 @@ TEST_F(CheckSim, MovedLedFails) {
   sim::SimWorld slipped(cfg);
   LiveEvidence live;
   for (double a : {-60.0, 0.0, 60.0}) {
-    HighlightImage im{a, "glossy", expose_linear(slipped, slipped.render_with(glossy_black(), a, true), 0.8, nullptr, nullptr, 1.0)};
+    HighlightImage im{a, "glossy", expose_linear(slipped, slipped.render_with(test::glossy_black_sphere(), a, true), 0.8, nullptr, nullptr, 1.0)};
     live.highlights.push_back(find_highlight(im, *cam_, *calibration().sphere(), rig_->geometry));
   }
   CheckReport r = run_checks(*rig_, calibration(), live);

@@ -9,6 +9,7 @@
 #include "paintlab/calibration/light.h"
 #include "paintlab/core/error.h"
 #include "sim_scenes.h"
+#include "sim_paints.h"
 #include "test_util.h"
 
 using namespace paintlab;
@@ -17,24 +18,13 @@ using namespace paintlab::calib::testing;
 
 namespace {
 
-// A glossy black calibration sphere: little diffuse, one Beckmann lobe of m = 0.03.
-sim::SimPaint glossy_black() {
-  brdf::CtLobe lobe;
-  lobe.ks = brdf::Rgb(0.6, 0.6, 0.6);
-  lobe.m = 0.03;
-  lobe.r = 0.05;
-  sim::SimPaint p;
-  p.brdf = std::make_shared<brdf::CookTorrance>(brdf::Rgb(0.01, 0.01, 0.01), std::vector<brdf::CtLobe>{lobe});
-  return p;
-}
-
 // The glossy sphere at 11 table angles on the simulated rig, rendered once for the tests.
 class LightSim : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     world_ = new sim::SimWorld(sim_rig_config());
     images_ = new std::vector<HighlightImage>();
-    const sim::SimPaint ball = glossy_black();
+    const sim::SimPaint ball = test::glossy_black_sphere();
     // Both sides of the camera: the arm radius is seen through parallax only (light.h).
     for (double a = -150; a <= 150.0; a += 30.0)
       images_->push_back({a, "glossy-" + std::to_string(static_cast<int>(a)),
@@ -132,7 +122,7 @@ TEST_F(LightSim, ArmRadiusWithinTwoTenthsOfAPercentOnTheFittedSphere) {
 
 TEST(LightSimOff, LedOffGivesNoHighlightAndTheFitNamesTheImages) {
   sim::SimWorld world(sim_rig_config());
-  const sim::SimPaint ball = glossy_black();
+  const sim::SimPaint ball = test::glossy_black_sphere();
   std::vector<HighlightImage> images;
   for (double a : {0.0, 30.0}) images.push_back({a, "dark-" + std::to_string(static_cast<int>(a)),
                                                        expose_linear(world, world.render_with(ball, a, false), 0.8)});

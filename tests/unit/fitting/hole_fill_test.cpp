@@ -16,7 +16,7 @@
 namespace paintlab::fit {
 namespace {
 
-brdf::CookTorrance silver() {
+brdf::CookTorrance silver_ct() {
   return brdf::CookTorrance(brdf::Rgb(0.030, 0.032, 0.035), {{brdf::Rgb(0.060, 0.062, 0.066), 0.38, 0.85},
                                                             {brdf::Rgb(0.045, 0.046, 0.048), 0.16, 0.55},
                                                             {brdf::Rgb(0.15, 0.15, 0.15), 0.015, 0.04}});
@@ -28,7 +28,7 @@ struct Holey {
   brdf::MerlTable table;
 };
 Holey make_holey(double keep, std::uint64_t seed) {
-  Holey h{brdf::tabulate(silver()), {}};
+  Holey h{brdf::tabulate(silver_ct()), {}};
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0, 1);
   for (std::size_t b = 0; b < brdf::kMerlBins; ++b) {

@@ -4,6 +4,7 @@
 #include <random>
 
 #include "paintlab/sim/camera_model.h"
+#include "sim_cv_util.h"
 #include "sim_test_util.h"
 #include "test_util.h"
 
@@ -21,14 +22,6 @@ sim::CameraTruth distorted_camera() {
   return t;
 }
 
-cv::Mat cv_K(const sim::CameraModel& cam) {
-  Mat3 k = cam.K();
-  cv::Mat m(3, 3, CV_64F);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m.at<double>(r, c) = k(r, c);
-  return m;
-}
-
 }  // namespace
 
 TEST(CameraModel, ProjectionMatchesOpenCv) {
@@ -41,7 +34,7 @@ TEST(CameraModel, ProjectionMatchesOpenCv) {
     pts.emplace_back(0.12 * z * u(rng), 0.09 * z * u(rng), z);
   }
   std::vector<cv::Point2d> cv_px;
-  cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv_K(cam), cv::Mat(cam.dist()), cv_px);
+  cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), sim::test::cv_camera_matrix(cam), cv::Mat(cam.dist()), cv_px);
   double worst = 0;
   for (std::size_t i = 0; i < pts.size(); ++i) {
     Vec2 p = cam.project(Vec3(pts[i].x, pts[i].y, pts[i].z));
@@ -57,7 +50,7 @@ TEST(CameraModel, UndistortInvertsDistortAndMatchesOpenCv) {
     for (int x = 0; x <= 320; x += 20) px.emplace_back(x - 0.5, y - 0.5);
   std::vector<cv::Point2d> cv_norm;
   // OpenCV's own iterative undistortion, run to convergence.
-  cv::undistortPoints(px, cv_norm, cv_K(cam), cv::Mat(cam.dist()), cv::noArray(), cv::noArray(),
+  cv::undistortPoints(px, cv_norm, sim::test::cv_camera_matrix(cam), cv::Mat(cam.dist()), cv::noArray(), cv::noArray(),
                       cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-15));
   double worst_round_trip = 0, worst_cv = 0;
   for (std::size_t i = 0; i < px.size(); ++i) {

@@ -6,6 +6,7 @@
 
 #include "paintlab/sim/scenes.h"
 #include "paintlab/sim/sensor.h"
+#include "sim_cv_util.h"
 #include "sim_test_util.h"
 #include "test_util.h"
 
@@ -22,14 +23,6 @@ sim::CameraTruth camera_truth() {
   t.dist = {-0.24, 0.09, 0.0011, -0.0007, -0.015};
   t.psf_sigma_px = 0.7;  // a slightly soft lens, as real ones are
   return t;
-}
-
-cv::Mat cv_K(const sim::CameraModel& cam) {
-  Mat3 k = cam.K();
-  cv::Mat m(3, 3, CV_64F);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m.at<double>(r, c) = k(r, c);
-  return m;
 }
 
 sim::Chessboard board() {
@@ -55,7 +48,7 @@ TEST(Chessboard, ProjectedCornersMatchOpenCv) {
     Vec3 r = aa.axis() * aa.angle();
     std::vector<cv::Point2d> cv_px;
     cv::projectPoints(obj, cv::Vec3d(r.x(), r.y(), r.z()),
-                      cv::Vec3d(pose.translation.x(), pose.translation.y(), pose.translation.z()), cv_K(cam),
+                      cv::Vec3d(pose.translation.x(), pose.translation.y(), pose.translation.z()), sim::test::cv_camera_matrix(cam),
                       cv::Mat(cam.dist()), cv_px);
     auto ours = sim::project_points(cam, pose, b.corners());
     for (std::size_t i = 0; i < ours.size(); ++i)
