@@ -20,6 +20,7 @@
 #include "paintlab/calibration/procedure.h"
 #include "paintlab/core/input_files.h"
 #include "cli.h"
+#include "output_guard.h"
 #include "paintlab/calibration/intrinsics.h"
 #include "paintlab/calibration/light.h"
 #include "paintlab/calibration/record.h"
@@ -99,6 +100,43 @@ std::vector<Shot> step_images(CalibrateContext& c, const std::string& step, cons
   for (double a : angles)
     shots.push_back(capture_shot(*c.session, step, fmt::format("{}_angle{:g}", step, a), a, led_on, fill, quantile));
   return shots;
+}
+
+// The calibration files the steps `steps` write into the rig's calibration folder (and the
+// .exr dark and flat write beside their .json), checked against the images they read and the
+// rig file before any device opens. `images`: --images as given; `out`: intrinsics' --out.
+void check_calibration_outputs(const std::string& rig_file, const std::vector<std::string>& images,
+                               const std::vector<std::string>& steps, const std::string& out = "") {
+  OutputGuard guard;
+  guard.input("--rig", rig_file);
+  if (images.size() == 1 && fs::is_directory(images[0]) && steps.size() > 1) {
+    // calibrate all --images DIR: one subfolder per step.
+    std::vector<fs::path> files;
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(images[0], ec); !ec && it != fs::recursive_directory_iterator();
+         it.increment(ec))
+      if (it->is_regular_file(ec)) files.push_back(it->path());
+    guard.inputs("--images", files);
+  } else if (!images.empty()) {
+    guard.inputs("--images", expand_input_files(images, "--images", kCalibrationImageExtensions));
+  }
+  if (!out.empty()) {
+    guard.output({"--out", out});
+  } else {
+    const fs::path dir = RigConfig::load(rig_file).calibration_dir;
+    for (const std::string& step : steps) {
+      const std::string file = calib::procedure_step(step).file;
+      std::vector<fs::path> written = {dir / file};
+      if (step == "dark" || step == "flat") written.push_back(fs::path(dir / file).replace_extension(".exr"));
+      for (const fs::path& w : written) {
+        OutputSpec spec("--rig", w);
+        spec.beside = rig_file;
+        spec.create_parents = true;
+        guard.output(spec);
+      }
+    }
+  }
+  guard.check();
 }
 
 // ---- the steps ----
@@ -305,10 +343,12 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
         if (a->images.empty() || a->out.empty())
           throw UsageError("calibrate intrinsics: without --rig give --images FILES... and --out FILE");
         if (common->capture) throw UsageError("calibrate intrinsics: --capture needs --rig");
+        check_calibration_outputs("", a->images, {"intrinsics"}, a->out);
         CalibrateContext c;
         run_intrinsics(c, *a, false);
         return kExitOk;
       }
+      check_calibration_outputs(common->rig, a->images, {"intrinsics"}, a->out);
       std::unique_ptr<CalibSession> keep;
       CalibrateContext c = context(common->rig, common->capture, 0.0, &keep);
       run_intrinsics(c, *a, true);
@@ -351,6 +391,7 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
       if (a->images.empty() == !a->capture) throw UsageError("calibrate " + name + ": give either --images or --capture");
       std::unique_ptr<CalibSession> keep;
       require_step_inputs(RigConfig::load(a->rig), name);  // before any device opens
+      check_calibration_outputs(a->rig, a->images, {name});
       CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
       run(c, a->images, a->angles);
       return kExitOk;
@@ -374,6 +415,12 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
     on_run(cmd, [a, dir, k3, context, runners] {
       if (dir->empty() == !a->capture) throw UsageError("calibrate all: give either --images DIR or --capture");
       if (k3->first && k3->second) throw UsageError("calibrate all: give --fix-k3 or --free-k3, not both");
+      {
+        std::vector<std::string> steps;
+        for (const calib::ProcedureStep& step : calib::calibration_procedure()) steps.push_back(step.name);
+        check_calibration_outputs(a->rig, dir->empty() ? std::vector<std::string>{} : std::vector<std::string>{*dir},
+                                  steps);
+      }
       std::unique_ptr<CalibSession> keep;
       CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
       if (!dir->empty()) c.images_dir = fs::path(*dir);

@@ -9,6 +9,7 @@
 #include "calibrate_support.h"
 #include "paintlab/core/input_files.h"
 #include "cli.h"
+#include "output_guard.h"
 #include "paintlab/calibration/check.h"
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
@@ -65,6 +66,22 @@ void register_check_commands(CLI::App& app) {
   on_run(cmd, [a] {
     if (a->capture && !a->images.empty()) throw UsageError("check: give --capture or --images, not both");
     const RigConfig rig = RigConfig::load(a->rig);
+    {
+      // check.json goes into the calibration folder: never over the live images, never into a
+      // session or library.
+      OutputGuard guard;
+      guard.input("--rig", a->rig);
+      if (!a->images.empty() && fs::is_directory(a->images)) {
+        std::error_code ec;
+        for (auto it = fs::recursive_directory_iterator(a->images, ec); !ec && it != fs::recursive_directory_iterator();
+             it.increment(ec))
+          if (it->is_regular_file(ec)) guard.input("--images", it->path());
+      }
+      OutputSpec report("--rig", rig.calibration_dir / calib::kCheckFile);
+      report.beside = a->rig;
+      report.create_parents = true;
+      guard.output(report).check();
+    }
     const calib::RigCalibration cal = calib::RigCalibration::load(rig);
     calib::LiveEvidence live;
     std::vector<calib::CheckItem> extra;

@@ -24,6 +24,7 @@
 #include <toml++/toml.h>
 
 #include "cli.h"
+#include "output_guard.h"
 #include "paintlab/brdf/paint.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/response.h"
@@ -299,6 +300,12 @@ int run_demo(const DemoArgs& a) {
   if (a.out.empty()) throw UsageError("demo: --out DIR is required");
   if (a.lobes < 0 || a.lobes > 3) throw UsageError("demo --lobes: 1..3 (0: as many as the paint has, at most 3)");
   const fs::path dir = fs::absolute(a.out);
+  {
+    OutputSpec out("--out", a.out);
+    out.folder = true;
+    out.create_parents = true;
+    OutputGuard().input("--paint", a.paint).output(out).check();
+  }
   const DemoPaint paint = demo_paint(a.paint);
   const std::string name = paint.spec.name;
   if (fs::exists(dir) && !fs::is_directory(dir)) throw UsageError(fmt::format("demo --out {}: not a folder", dir.string()));

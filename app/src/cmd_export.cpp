@@ -8,7 +8,9 @@
 
 #include "cli.h"
 #include "extract_options.h"
+#include "output_guard.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/json.h"
 #include "paintlab/fitting/axf_file.h"
 #include "paintlab/fitting/export.h"
 
@@ -32,7 +34,24 @@ struct ExportArgs {
   CLI::Option* lobes_option = nullptr;
 };
 
+// The measured table or session a fit.json was fitted to (its "input" path): --merl reads it.
+fs::path fitted_input_of(const fs::path& file) {
+  if (file.extension() != ".json" || !fs::is_regular_file(file)) return {};
+  try {
+    const Json j = read_json_file(file);
+    if (j.is_object() && j.contains("input") && j["input"].is_object())
+      return fs::path(j["input"].value("path", std::string()));
+  } catch (const Error&) {
+    // export itself names what is wrong with the file
+  }
+  return {};
+}
+
 int run_export(const ExportArgs& a) {
+  OutputGuard guard;
+  for (const auto& in : a.inputs) guard.input("INPUT", in).input("what " + in + " was fitted to", fitted_input_of(in));
+  guard.input("--calib", a.extract.calib);
+  guard.output({"--axf", a.axf}).output({"--merl", a.merl}).output({"--fit-out", a.fit_out}).check();
   fit::ExportRequest r;
   for (const auto& in : a.inputs) r.inputs.emplace_back(in);
   if (!a.axf.empty()) r.axf = a.axf;

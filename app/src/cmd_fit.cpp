@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "extract_options.h"
+#include "output_guard.h"
 #include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/merl.h"
 #include "paintlab/calibration/rig_calibration.h"
@@ -62,6 +63,7 @@ int run_fit(const FitArgs& a) {
   req.check();
   const fs::path input(a.input);
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
+  OutputGuard().input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out}).check();
   fit::FitOutcome outcome;
   if (fs::is_directory(input)) {
     if (!fs::exists(input / "session.json"))
@@ -105,7 +107,13 @@ int run_bin(const BinArgs& a) {
     throw UsageError(fmt::format("{}: not a session folder (no session.json)", a.session));
   const fs::path out(a.out);
   fs::path cov(a.coverage);
-  if (cov.empty()) cov = out.parent_path() / (out.stem().string() + ".coverage.exr");
+  OutputSpec cov_spec("--coverage", cov);
+  if (cov.empty()) {
+    cov = out.parent_path() / (out.stem().string() + ".coverage.exr");
+    cov_spec = OutputSpec("--out", cov);
+    cov_spec.beside = out;
+  }
+  OutputGuard().input("SESSION", dir).input("--calib", a.extract.calib).output({"--out", out}).output(cov_spec).check();
   fit::BinnedSession s = fit::bin_session(acq::SessionDir::open(dir), bin_options(a.extract));
   say(stats_line(s.stats, s.binned));
   if (s.binned.table.count_in_state(brdf::BinState::Measured) == 0)

@@ -10,11 +10,13 @@
 #include <memory>
 
 #include "cli.h"
+#include "output_guard.h"
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/core/input_files.h"
 #include "paintlab/core/rig.h"
 #include "radiometry_support.h"
 
@@ -72,6 +74,19 @@ void register_hdr_commands(CLI::App& app) {
       if (response.empty() && dark.empty() && flat.empty())
         spdlog::warn("{} has no response.json, dark.json or flat.json: merging as a linear camera",
                      rig.calibration_dir.string());
+    }
+    {
+      OutputSpec out_spec("--out", out);
+      out_spec.create_parents = true;
+      OutputGuard()
+          .inputs("--images", expand_input_files(a->input.images, "--images", kRawImageExtensions))
+          .input("--exposure-file", a->input.exposure_file)
+          .input("--rig", a->rig)
+          .input(a->response.empty() ? "--rig's response" : "--response", response)
+          .input(a->dark.empty() ? "--rig's dark frame" : "--dark", dark)
+          .input(a->flat.empty() ? "--rig's flat field" : "--flat", flat)
+          .output(out_spec)
+          .check();
     }
     if (!response.empty()) cal.response = calib::ResponseCurve::load(response);
     if (!dark.empty()) cal.dark = calib::DarkFrame::load(dark);

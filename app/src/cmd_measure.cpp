@@ -9,6 +9,7 @@
 
 #include "cli.h"
 #include "measure_support.h"
+#include "output_guard.h"
 #include "paintlab/acquisition/adaptive.h"
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/acquisition/measurement.h"
@@ -75,6 +76,15 @@ int run_measure(const MeasureArgs& a) {
   if (!resume && (a.sample.empty() || a.sample.find_first_of("/\\\n") != std::string::npos))
     throw UsageError("--sample must be a non-empty name without '/', '\\' or newlines");
 
+  if (!resume) {
+    // A new session folder: never an input, never inside another session or a library (the
+    // folder itself, when it already holds a session, is refused by SessionDir::create with
+    // the --resume command to continue it).
+    OutputSpec out("--out", a.out);
+    out.folder = true;
+    out.create_parents = true;
+    OutputGuard().input("--rig", a.rig).input("--sim-paint", a.sim_paint).output(out, fs::path(a.out)).check();
+  }
   std::optional<acq::SessionDir> session;
   std::string rig_path = a.rig;
   if (resume) {

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "cli.h"
+#include "output_guard.h"
 #include "paintlab/fitting/export.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/preview.h"
@@ -51,6 +52,14 @@ int run_compare(const RenderArgs& a) {
 }
 
 int run_render(const RenderArgs& a) {
+  OutputGuard()
+      .input("PAINT", a.paint)
+      .input("--env", a.env)
+      .input("--compare", a.compare)
+      .input("--calib", a.calib)
+      .output({"--out", a.out})
+      .output({"--hdr", a.hdr})
+      .check();
   if (!a.compare.empty()) return run_compare(a);
   fit::PreviewOptions o;
   o.size_px = a.size;
