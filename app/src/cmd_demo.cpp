@@ -55,6 +55,7 @@ struct DemoArgs {
   bool quick = false;
   int lobes = 0;
   bool keep_going = false;
+  int max_iterations = 100;  // of the fit's final solve (paintlab fit --max-iterations)
 };
 
 // Sets `path` (e.g. "geometry.image_width_px") of the built-in rig to `value`. The key must
@@ -288,6 +289,11 @@ void print_summary(const Json& s) {
   if (fit.contains("residual"))
     say(fmt::format("residual: log-RMS {:.4f} over {} bins", fit["residual"].value("log_rms", 0.0),
                     fit["residual"].value("bins_used", 0)));
+  if (!s.value("fit_converged", true))
+    say(fmt::format("fit: did NOT converge ({}); the parameters above are the solver's last",
+                    s.value("fit_termination", std::string("no termination recorded"))));
+  else if (s.contains("fit_converged"))
+    say("fit: converged");
   say("calibration against the simulator's truth:");
   for (const auto& [k, v] : s["calibration"].items()) say(fmt::format("  {:<26} {:.5g}", k, v.get<double>()));
   say("timings (s):");
@@ -299,6 +305,7 @@ void print_summary(const Json& s) {
 int run_demo(const DemoArgs& a) {
   if (a.out.empty()) throw UsageError("demo: --out DIR is required");
   if (a.lobes < 0 || a.lobes > 3) throw UsageError("demo --lobes: 1..3 (0: as many as the paint has, at most 3)");
+  if (a.max_iterations < 1) throw UsageError(fmt::format("demo --max-iterations {}: must be >= 1", a.max_iterations));
   const fs::path dir = fs::absolute(a.out);
   {
     OutputSpec out("--out", a.out);
@@ -314,7 +321,7 @@ int run_demo(const DemoArgs& a) {
                                  dir.string()));
   fs::create_directories(dir);
   // An earlier demo's results are replaced as a whole (never mixed with this run's).
-  for (const char* old : {"calib", "session", "library", "summary.json"}) fs::remove_all(dir / old);
+  for (const char* old : {"calib", "session", "library", "summary.json", "fit.json"}) fs::remove_all(dir / old);
   write_file_atomic(dir / kMarker, "written by paintlab demo; a later demo may replace this folder's contents\n");
 
   const fs::path rig_file = dir / "rig.toml";
@@ -361,9 +368,23 @@ int run_demo(const DemoArgs& a) {
   step({"measure", "--rig", R, "--sample", name, "--out", session.string(), "--sim-paint", paint_file.string(),
         "--notes", "paintlab demo"},
        t_measure, "the measurement");
-  step({"fit", session.string(), "--model", "cook-torrance", "--lobes", std::to_string(lobes), "--name", name, "--out",
-        fit_file.string()},
-       t_fit, "the fit");
+  // A fit that stops before converging exits 1 but writes fit.json ("converged": false):
+  // the demo goes on with it and says so in its summary (and exits 1 at the end).
+  {
+    const int rc = run_step({"fit", session.string(), "--model", "cook-torrance", "--lobes", std::to_string(lobes),
+                             "--name", name, "--max-iterations", std::to_string(a.max_iterations), "--out",
+                             fit_file.string()},
+                            t_fit);
+    bool written_unconverged = false;
+    if (rc == kExitFailed && fs::exists(fit_file)) {
+      const Json j = read_json_file(fit_file);
+      written_unconverged = j.contains("summary") && j["summary"].is_object() &&
+                            j["summary"].contains("converged") && j["summary"]["converged"] == false;
+    }
+    if (rc != 0 && !written_unconverged)
+      throw JobError(fmt::format("demo: the fit failed (exit {}); the files so far are in {}", rc, dir.string()));
+    if (written_unconverged) say("demo: the fit did not converge; going on with its last parameters (fit.json says so)");
+  }
   step({"export", fit_file.string(), "--axf", axf.string()}, t_export, "the AxF-like export");
   step({"export", session.string(), "--merl", merl.string()}, t_export, "the MERL export");
   step({"axf", "validate", axf.string()}, t_export, "validating the AxF-like file");
@@ -380,6 +401,10 @@ int run_demo(const DemoArgs& a) {
   // Every camera format the rig supports is monochrome (devices/camera.h: Mono8/12/16).
   summary["truth_seen_by_camera"] = truth_seen_by_camera(summary["truth"], truth.camera.mono_weights, true);
   summary["fit"] = fit;
+  const Json& fit_summary = fit.contains("summary") && fit["summary"].is_object() ? fit["summary"] : Json::object();
+  const bool fit_converged = fit_summary.value("converged", true);
+  summary["fit_converged"] = fit_converged;
+  summary["fit_termination"] = fit_summary.value("termination", std::string());
   summary["calibration"] = calibration_errors(rig, truth);
   summary["timings_s"] = {{"calibrate", t_cal + t_check}, {"measure", t_measure}, {"fit", t_fit},
                           {"export", t_export},          {"total", total}};
@@ -389,6 +414,11 @@ int run_demo(const DemoArgs& a) {
   summary["quick"] = a.quick;
   write_json_file(dir / "summary.json", summary);
   print_summary(summary);
+  if (!fit_converged) {
+    say(fmt::format("demo finished in {:.1f} s, but the fit did NOT converge (exit 1): {}", total,
+                    (dir / "summary.json").string()));
+    return kExitFailed;
+  }
   say(fmt::format("demo finished in {:.1f} s: {}", total, (dir / "summary.json").string()));
   return kExitOk;
 }
@@ -406,6 +436,10 @@ void register_demo_commands(CLI::App& app) {
   d->add_flag("--quick", a->quick, "Half resolution, light every 10 deg, 8 exposures (under 2 minutes)");
   d->add_option("--lobes", a->lobes, "Cook-Torrance lobes to fit (default: the paint's, at most 3)");
   d->add_flag("--keep-going", a->keep_going, "Measure even when the rig check fails");
+  d->add_option("--max-iterations", a->max_iterations,
+                "Iterations of the fit's final solve (paintlab fit --max-iterations); a fit that stops there is "
+                "exported and summarised all the same, and the demo exits 1")
+      ->capture_default_str();
   on_run(d, [a] { return run_demo(*a); });
 }
 

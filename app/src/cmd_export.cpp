@@ -11,6 +11,7 @@
 #include "output_guard.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/json.h"
+#include "paintlab/core/log.h"
 #include "paintlab/fitting/axf_file.h"
 #include "paintlab/fitting/export.h"
 
@@ -65,6 +66,11 @@ int run_export(const ExportArgs& a) {
   r.threads = a.extract.threads;
   const fit::ExportResult result = fit::export_paint(r);
   for (const auto& line : result.lines) say(line);
+  if (!result.converged) {
+    for (const auto& line : result.not_converged)
+      spdlog::warn("{}; the files are written all the same and record \"converged\": false (exit 1)", line);
+    return kExitFailed;
+  }
   return kExitOk;
 }
 
@@ -96,7 +102,8 @@ void register_export_commands(CLI::App& app) {
       "Export a measured paint: an AxF-like HDF5 file (docs/axf-like.md) and/or the measured, hole-filled MERL "
       ".binary table.\nINPUT is a session folder (binned and fitted here), or one or two paint files: fit.json "
       "(either model; two fits of one measurement are merged), .axf.h5 or paint .toml.\nExit 0 written, 1 the fit "
-      "did not converge (nothing written), 2 bad input.");
+      "made here did not converge (the files are written all the same and record it; a paint file whose fit did "
+      "not converge is exported with a warning, exit 0), 2 bad input (nothing written).");
   exp->add_option("INPUT", args->inputs, "session folder, or fit.json / .axf.h5 / .toml (one or two)")->required();
   exp->add_option("--axf", args->axf, "AxF-like paint file to write (.axf.h5)");
   exp->add_option("--merl", args->merl, "MERL .binary to write (measured bins + hole filling)");

@@ -88,6 +88,13 @@ int run_fit(const FitArgs& a) {
   std::string report = outcome.report;
   while (!report.empty() && report.back() == '\n') report.pop_back();
   say(report);
+  if (!outcome.converged) {
+    // Written anyway: the last parameters are often close, and fit.json says converged false.
+    spdlog::warn("the {} fit did not converge: {}; {} is written with \"converged\": false (exit 1)",
+                 fit::to_string(req.model), outcome.termination, a.out);
+    say(fmt::format("wrote {} (NOT converged: {})", a.out, outcome.termination));
+    return kExitFailed;
+  }
   say(fmt::format("wrote {}", a.out));
   return kExitOk;
 }
@@ -142,7 +149,8 @@ void register_fit_commands(CLI::App& app) {
       "fit",
       "Fit a paint model to a session (its HDR images are extracted and binned with the rig's calibration) or to a "
       "MERL .binary table, and write fit.json (parameters, standard deviations, residuals per region, solver "
-      "summary). Exit 1 when the fit does not converge, 2 on bad input; nothing is written then.");
+      "summary). Exit 1 when the fit does not converge (fit.json is still written, with \"converged\": false and "
+      "the solver's termination), 2 on bad input (nothing is written then).");
   fit->add_option("INPUT", args->input, "Session folder or MERL .binary table")->required();
   fit->add_option("--model", args->model, "Model to fit: cook-torrance or axf-carpaint")->capture_default_str();
   fit->add_option("--lobes", args->lobes, "Lobes (Cook-Torrance, or the car paint's achromatic lobes), 1..3")->capture_default_str();

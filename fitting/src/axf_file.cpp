@@ -13,6 +13,7 @@
 #include "axf_file_h5.h"
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/log.h"
 #include "paintlab/core/version.h"
 
 namespace fs = std::filesystem;
@@ -739,7 +740,20 @@ AxfPaint axf_from_fit_json(const Json& fit, const std::string& where) {
   const brdf::PaintSpec spec = brdf::paint_from_json(fit, where);
   AxfPaint a = axf_from_paint(spec);
   a.provenance.source = where;
-  if (a.cook_torrance && fit.contains("stddev")) {
+  // A standard deviation the fit could not determine is null in fit.json (a lobe without
+  // weight, a failed covariance, a fit stopped before converging); the file holds all of
+  // them or none, so such a fit's are left out (with a warning), the fit itself is read.
+  const std::function<bool(const Json&)> has_null = [&](const Json& j) {
+    if (j.is_null()) return true;
+    if (j.is_object() || j.is_array())
+      for (const auto& e : j)
+        if (has_null(e)) return true;
+    return false;
+  };
+  const bool stddev_known = !fit.contains("stddev") || !has_null(fit["stddev"]);
+  if (!stddev_known)
+    spdlog::warn("{}: some standard deviations are undetermined (null); the paint is read without them", where);
+  if (a.cook_torrance && fit.contains("stddev") && stddev_known) {
     const Json& s = fit["stddev"];
     const std::string sw = where + ": key 'stddev'";
     if (!s.is_object()) throw DataError(sw + ": expected an object");
@@ -760,7 +774,7 @@ AxfPaint axf_from_fit_json(const Json& fit, const std::string& where) {
     }
     a.cook_torrance->stddev = sd;
   }
-  if (a.carpaint && fit.contains("stddev")) {
+  if (a.carpaint && fit.contains("stddev") && stddev_known) {
     const Json& s = fit["stddev"];
     const std::string sw = where + ": key 'stddev'";
     if (!s.is_object()) throw DataError(sw + ": expected an object");

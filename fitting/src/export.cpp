@@ -94,6 +94,11 @@ void export_session(const ExportRequest& r, ExportResult& result) {
       spdlog::info("fitting {}", to_string(m));
       FitOutcome out =
           fit_table(binned.table, binned.noise_variance.empty() ? nullptr : &binned.noise_variance, req, s.input);
+      if (!out.converged) {
+        // Exported all the same (the AxF-like file and --fit-out record it); the command exits 1.
+        result.converged = false;
+        result.not_converged.push_back(fmt::format("the {} fit did not converge: {}", to_string(m), out.termination));
+      }
       result.fits.push_back(std::move(out.fit));
     }
     result.fit_s = seconds_since(t0);
@@ -250,10 +255,24 @@ AxfPaint load_any_paint(const fs::path& file) {
   if (!fs::exists(file)) throw IoError(file.string(), "no such file");
   if (fs::is_directory(file)) throw UsageError(file.string() + ": a folder, expected a paint file (.axf.h5, fit.json or .toml)");
   const std::string ext = lower_extension(file);
-  if (ext == ".h5" || ext == ".hdf5") return read_axf_file(file);
+  if (ext == ".h5" || ext == ".hdf5") {
+    AxfPaint p = read_axf_file(file);
+    if (p.fit_quality && !p.fit_quality->converged)
+      spdlog::warn("{}: the fit of this paint did not converge (the file records it); read all the same", file.string());
+    return p;
+  }
   if (ext == ".json") {
-    AxfPaint p = axf_from_fit_json(read_json_file(file), file.string());
+    const Json j = read_json_file(file);
+    AxfPaint p = axf_from_fit_json(j, file.string());
     p.provenance.source = fs::absolute(file).lexically_normal().string();
+    if (p.fit_quality && !p.fit_quality->converged) {
+      std::string why;
+      if (j["summary"].is_object() && j["summary"].contains("termination") && j["summary"]["termination"].is_string())
+        why = " (" + j["summary"]["termination"].get<std::string>() + ")";
+      spdlog::warn("{}: the fit did not converge{}: \"converged\": false; read all the same, and an AxF-like file "
+                   "written from it records it",
+                   file.string(), why);
+    }
     return p;
   }
   if (ext == ".toml") {

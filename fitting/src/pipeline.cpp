@@ -115,6 +115,14 @@ std::string axf_report(const AxfFit& f) {
   return s;
 }
 
+// The outcome's convergence, and a report line when the solver stopped before converging.
+void set_termination(FitOutcome& out, const FitSummary& s) {
+  out.converged = s.converged;
+  out.termination = fmt::format("{} ({} iterations)", s.termination, s.iterations);
+  if (!s.converged)
+    out.report += fmt::format("  NOT CONVERGED     {}: the parameters are the solver's last\n", out.termination);
+}
+
 }  // namespace
 
 FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noise_variance, const FitRequest& request,
@@ -124,21 +132,17 @@ FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noi
     case FitModel::CookTorrance: {
       const FitData data = prepare_fit_data(table, request.cook_torrance.data, noise_variance);
       const CookTorranceFit f = fit_cook_torrance(data, request.cook_torrance);
-      if (!f.summary.converged)
-        throw JobError(fmt::format("the cook-torrance fit did not converge ({}) after {} iterations", f.summary.termination,
-                                   f.summary.iterations));
       out.fit = f.to_json(request.name);
       out.report = ct_report(f);
+      set_termination(out, f.summary);
       break;
     }
     case FitModel::AxfCarPaint: {
       const FitData data = prepare_fit_data(table, request.axf_carpaint.data, noise_variance);
       const AxfFit f = fit_axf_carpaint(data, request.axf_carpaint);
-      if (!f.summary.converged)
-        throw JobError(fmt::format("the axf-carpaint fit did not converge ({}) after {} iterations", f.summary.termination,
-                                   f.summary.iterations));
       out.fit = f.to_json(request.name);
       out.report = axf_report(f);
+      set_termination(out, f.summary);
       break;
     }
   }

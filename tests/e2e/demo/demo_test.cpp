@@ -88,6 +88,27 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
   EXPECT_THAT(lib.out, HasSubstr("silver-metallic"));
 }
 
+// Issue 13: a fit that stops at its iteration limit does not lose the run. The demo goes on
+// with fit.json ("converged": false), exports, renders, says so in its summary, exits 1.
+TEST(DemoCli, AFitThatDoesNotConvergeIsExportedAndSummarised) {
+  test::TempDir dir;
+  const fs::path out = dir / "demo";
+  auto r = test::run_paintlab("demo --quick --max-iterations 1 --paint " +
+                              (test::source_dir() / "paints/pearlescent.toml").string() + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("did not converge"));
+  EXPECT_THAT(r.out, HasSubstr("fit: did NOT converge"));
+  EXPECT_THAT(r.out, HasSubstr("the fit did NOT converge (exit 1)"));
+  ASSERT_TRUE(fs::exists(out / "summary.json"));
+  const Json s = read_json_file(out / "summary.json");
+  EXPECT_FALSE(s["fit_converged"].get<bool>());
+  EXPECT_THAT(s["fit_termination"].get<std::string>(), HasSubstr("NO_CONVERGENCE"));
+  EXPECT_FALSE(s["fit"]["summary"]["converged"].get<bool>());
+  for (const char* f : {"axf", "merl", "fit", "preview", "compare"})
+    EXPECT_TRUE(fs::exists(s["files"][f].get<std::string>())) << f;
+  EXPECT_EQ(test::run_paintlab("axf validate " + s["files"]["axf"].get<std::string>()).exit_code, 0);
+}
+
 TEST(DemoCli, RefusesAFolderThatIsNotADemosAndBadPaints) {
   test::TempDir dir;
   test::write_text(dir / "notes.txt", "mine");

@@ -95,7 +95,10 @@ TEST(FitCli, BadInputFailsWithoutWritingAnything) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-TEST(FitCli, AFitThatDoesNotConvergeExitsOneWithoutOutput) {
+// A fit stopped at its iteration limit is written all the same, with "converged": false and
+// the solver's termination, and the command exits 1 (issue 13); readers of such a fit.json
+// (export, library add) accept it and say so.
+TEST(FitCli, AFitThatDoesNotConvergeIsWrittenAndExitsOne) {
   test::TempDir dir;
   // A layered pearlescent paint is no sum of Cook-Torrance lobes; one iteration cannot converge.
   brdf::PearlescentParams p;
@@ -111,7 +114,28 @@ TEST(FitCli, AFitThatDoesNotConvergeExitsOneWithoutOutput) {
   const auto r = test::run_paintlab("fit " + (dir / "pearl.binary").string() + " --max-iterations 1 --out " + out);
   EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
   EXPECT_THAT(r.err, HasSubstr("did not converge"));
-  EXPECT_FALSE(fs::exists(out));
+  EXPECT_THAT(r.err, HasSubstr("NO_CONVERGENCE"));
+  EXPECT_THAT(r.err, HasSubstr("\"converged\": false"));
+  EXPECT_THAT(r.out, HasSubstr("NOT converged"));
+  ASSERT_TRUE(fs::exists(out));
+  const Json j = read_json_file(out);
+  EXPECT_FALSE(j["summary"]["converged"].get<bool>());
+  EXPECT_THAT(j["summary"]["termination"].get<std::string>(), HasSubstr("NO_CONVERGENCE"));
+  EXPECT_EQ(j["summary"]["iterations"].get<int>(), 1);
+  EXPECT_EQ(j["lobes"].size(), 3u);
+  EXPECT_NO_THROW(brdf::paint_from_json(j, "fit.json"));
+  // Export from it: written, the file records it, a warning, exit 0 (the fit already exited 1).
+  const std::string axf = (dir / "pearl.axf.h5").string();
+  const auto e = test::run_paintlab("export " + out + " --axf " + axf);
+  EXPECT_EQ(e.exit_code, 0) << e.out << e.err;
+  EXPECT_THAT(e.err, HasSubstr("did not converge"));
+  ASSERT_TRUE(fs::exists(axf));
+  const auto show = test::run_paintlab("axf show " + axf);
+  EXPECT_THAT(show.out, HasSubstr("did NOT converge"));
+  // The library takes it, and says so.
+  const auto l = test::run_paintlab("library add --dir " + (dir / "lib").string() + " " + out);
+  EXPECT_EQ(l.exit_code, 0) << l.out << l.err;
+  EXPECT_THAT(l.err, HasSubstr("did not converge"));
 }
 
 // The frames of a simulated sweep as a session folder `dir` (session.json, journal.jsonl,

@@ -4,8 +4,11 @@
 // `paintlab render` (and `paintlab demo`) do, as plain functions; the commands only parse
 // their options and print the lines returned.
 // Errors: UsageError (exit 2: contradictory request), DataError/IoError/ConfigError naming
-// the file and field (exit 2), JobError when a fit does not converge (exit 1). Nothing is
-// written when one is thrown before the write (every file is written atomically).
+// the file and field (exit 2). Nothing is written when one is thrown before the write
+// (every file is written atomically). A fit that does not converge is no exception: an
+// export of a session writes its files all the same, the AxF-like file and --fit-out
+// record "converged" false, and ExportResult::converged tells the command to exit 1; a
+// paint file whose fit did not converge is read all the same with a warning (exit 0).
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -46,6 +49,10 @@ struct ExportResult {
   std::optional<AxfPaint> paint;   // what was written to `axf` (read back)
   std::vector<Json> fits;          // session input: the fit.json objects, one per model
   std::vector<std::string> lines;  // what was written, one line each, for people
+  // Session input: every fit made here converged. When not, the files are written all the
+  // same (recording it) and `not_converged` names each fit and its termination.
+  bool converged = true;
+  std::vector<std::string> not_converged;
   double bin_s = 0;                // wall time binning the session (0 for paint files)
   double fit_s = 0;                // wall time of the fits
   double write_s = 0;              // wall time writing the files (incl. hole filling)
@@ -88,7 +95,9 @@ ComparisonResult render_comparison_png(const std::filesystem::path& paint_file,
                                        const std::optional<std::filesystem::path>& hdr_out = std::nullopt);
 
 // A paint from an AxF-like file (.h5), a fit.json (.json) or a paint file (.toml), chosen
-// by the extension. DataError/ConfigError/IoError name the file and the field.
+// by the extension. DataError/ConfigError/IoError name the file and the field. A fit that
+// did not converge ("converged": false) is read all the same, with a warning naming the
+// file (and the solver's termination for a fit.json).
 AxfPaint load_any_paint(const std::filesystem::path& file);
 
 // Fills the holes of a measured table (fill_holes) and writes it as MERL .binary (atomic).

@@ -1,8 +1,11 @@
 #pragma once
 // The steps `paintlab fit` and `paintlab bin` chain (docs/fitting.md): a table (binned from
 // a session, or read from a MERL .binary) -> fit data -> the chosen model's fit -> the
-// fit.json object. Library code: throws DataError on bad input and JobError when the fit
-// does not converge (callers then write nothing).
+// fit.json object. Library code: throws DataError on bad input. A fit that stops before
+// Ceres reports convergence (at its iteration limit, say) is no exception: it is returned
+// with its last parameters and FitOutcome::converged = false, and fit.json's "summary"
+// says "converged": false with the termination; the commands decide what to print and
+// which exit code to give (docs/fitting.md).
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -46,11 +49,17 @@ struct FitRequest {
 struct FitOutcome {
   Json fit;               // the fit.json object (DESIGN.md "fit" + stddev + summary + input)
   std::string report;     // lines for people: parameters, residuals per region, solver figures
+  bool converged = false; // the final solve terminated with Ceres' CONVERGENCE (= fit["summary"]["converged"])
+  // Ceres' termination type and message with the iteration count, e.g. "NO_CONVERGENCE:
+  // Maximum number of iterations reached. ... (100 iterations)".
+  std::string termination;
 };
 
 // Fits the Measured bins of `table` (filled bins are never used). `noise_variance` is
-// BinnedTable::noise_variance or null. `input` goes into fit.json as "input". Throws
-// JobError ("the cook-torrance fit did not converge ...") when Ceres did not converge.
+// BinnedTable::noise_variance or null. `input` goes into fit.json as "input". Never throws
+// for a fit that did not converge: the outcome says so (converged, termination) and holds
+// the last parameters. Throws DataError when the data cannot be fitted and JobError when no
+// start gave a usable solution.
 FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noise_variance, const FitRequest& request,
                      const Json& input);
 
