@@ -64,16 +64,6 @@ class ConsoleStage final : public acq::Stage {
   Target current_ = Target::Sample;
 };
 
-sim::SimPaint glossy_sphere_paint() {
-  brdf::CtLobe lobe;
-  lobe.ks = brdf::Rgb(0.6, 0.6, 0.6);
-  lobe.m = 0.03;
-  lobe.r = 0.05;
-  sim::SimPaint p;
-  p.brdf = std::make_shared<brdf::CookTorrance>(brdf::Rgb(0.01, 0.01, 0.01), std::vector<brdf::CtLobe>{lobe});
-  return p;
-}
-
 // Frames of a fixed scene radiance through the simulated sensor, as the world's own source
 // makes them (exposure, gain, output depth, the camera's black level).
 sim::FrameSource static_scene(sim::SimWorld& world, std::shared_ptr<const ImageF> radiance) {
@@ -134,7 +124,7 @@ class SimStage final : public acq::Stage {
         rig_.world().set_paint(sim::reference_paint(albedo_));
         break;
       case Target::GlossySphere:
-        rig_.world().set_paint(glossy_sphere_paint());
+        rig_.world().set_paint(sim::glossy_black_sphere_paint());
         break;
     }
   }

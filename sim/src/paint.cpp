@@ -80,4 +80,13 @@ SimPaint reference_paint(double albedo) {
   return {std::make_shared<brdf::Lambertian>(brdf::Rgb::Constant(albedo)), std::nullopt};
 }
 
+SimPaint glossy_black_sphere_paint() {
+  brdf::CtLobe lobe;
+  lobe.ks = brdf::Rgb(0.6, 0.6, 0.6);
+  lobe.m = 0.03;
+  lobe.r = 0.05;
+  return {std::make_shared<brdf::CookTorrance>(brdf::Rgb(0.01, 0.01, 0.01), std::vector<brdf::CtLobe>{lobe}),
+          std::nullopt};
+}
+
 }  // namespace paintlab::sim

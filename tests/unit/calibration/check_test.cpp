@@ -10,7 +10,7 @@
 #include "paintlab/calibration/check.h"
 #include "paintlab/core/error.h"
 #include "sim_scenes.h"
-#include "sim_paints.h"
+#include "paintlab/sim/paint.h"
 #include "test_util.h"
 
 using namespace paintlab;
@@ -125,7 +125,7 @@ TEST_F(CheckSim, GoodRigPassesEveryCheckAndWritesCheckJson) {
   const RigCalibration cal = calibration();  // keeps the sphere below alive
   const SphereFit& cal_sphere = *cal.sphere();
   for (double a : {-60.0, 0.0, 60.0}) {
-    HighlightImage im{a, "glossy", expose_linear(*world_, world_->render_with(test::glossy_black_sphere(), a, true), 0.8, nullptr, nullptr, 1.0)};
+    HighlightImage im{a, "glossy", expose_linear(*world_, world_->render_with(sim::glossy_black_sphere_paint(), a, true), 0.8, nullptr, nullptr, 1.0)};
     live.highlights.push_back(find_highlight(im, *cam_, cal_sphere, rig_->geometry));
   }
   std::vector<ImageF> repeated = {rate_image(*world_, sim::reference_paint(0.99), 0.0, exposure_),
@@ -208,7 +208,7 @@ TEST_F(CheckSim, MovedLedFails) {
   sim::SimWorld slipped(cfg);
   LiveEvidence live;
   for (double a : {-60.0, 0.0, 60.0}) {
-    HighlightImage im{a, "glossy", expose_linear(slipped, slipped.render_with(test::glossy_black_sphere(), a, true), 0.8, nullptr, nullptr, 1.0)};
+    HighlightImage im{a, "glossy", expose_linear(slipped, slipped.render_with(sim::glossy_black_sphere_paint(), a, true), 0.8, nullptr, nullptr, 1.0)};
     live.highlights.push_back(find_highlight(im, *cam_, *calibration().sphere(), rig_->geometry));
   }
   CheckReport r = run_checks(*rig_, calibration(), live);

@@ -9,7 +9,7 @@
 #include "paintlab/calibration/light.h"
 #include "paintlab/core/error.h"
 #include "sim_scenes.h"
-#include "sim_paints.h"
+#include "paintlab/sim/paint.h"
 #include "test_util.h"
 
 using namespace paintlab;
@@ -24,7 +24,7 @@ class LightSim : public ::testing::Test {
   static void SetUpTestSuite() {
     world_ = new sim::SimWorld(sim_rig_config());
     images_ = new std::vector<HighlightImage>();
-    const sim::SimPaint ball = test::glossy_black_sphere();
+    const sim::SimPaint ball = sim::glossy_black_sphere_paint();
     // Both sides of the camera: the arm radius is seen through parallax only (light.h).
     for (double a = -150; a <= 150.0; a += 30.0)
       images_->push_back({a, "glossy-" + std::to_string(static_cast<int>(a)),
@@ -122,7 +122,7 @@ TEST_F(LightSim, ArmRadiusWithinTwoTenthsOfAPercentOnTheFittedSphere) {
 
 TEST(LightSimOff, LedOffGivesNoHighlightAndTheFitNamesTheImages) {
   sim::SimWorld world(sim_rig_config());
-  const sim::SimPaint ball = test::glossy_black_sphere();
+  const sim::SimPaint ball = sim::glossy_black_sphere_paint();
   std::vector<HighlightImage> images;
   for (double a : {0.0, 30.0}) images.push_back({a, "dark-" + std::to_string(static_cast<int>(a)),
                                                        expose_linear(world, world.render_with(ball, a, false), 0.8)});

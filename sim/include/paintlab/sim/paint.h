@@ -15,5 +15,8 @@ SimPaint sim_paint(const brdf::PaintSpec& spec);
 SimPaint load_sim_paint(const std::filesystem::path& paint_file);
 // A grey Lambertian paint of albedo rho: the white reference sphere of the scale calibration.
 SimPaint reference_paint(double albedo);
+// The glossy black calibration sphere of the sphere and light calibrations: diffuse 0.01,
+// one Beckmann lobe of ks 0.6, m 0.03, Fresnel r 0.05.
+SimPaint glossy_black_sphere_paint();
 
 }  // namespace paintlab::sim
