@@ -5,17 +5,25 @@ target_compile_options(paintlab_warnings INTERFACE -Wall -Wextra -Wpedantic)
 if(PAINTLAB_WERROR)
   target_compile_options(paintlab_warnings INTERFACE -Werror)
 endif()
-if(PAINTLAB_UNITY_BUILD)
+if(PAINTLAB_UNITY_BUILD AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
   # In a unity batch every .cpp but the batch file counts as a header for GCC, so a class
   # with a member or base from its own file's anonymous namespace (a test fixture, an Impl)
   # is reported as if a header leaked an internal type; it does not in a unity build.
   target_compile_options(paintlab_warnings INTERFACE -Wno-subobject-linkage)
 endif()
+if(PAINTLAB_FUZZ)
+  # Every library instrumented for libFuzzer's coverage (the harnesses add its main) and
+  # checked by ASan+UBSan, like the sanitizer build.
+  add_compile_options(-fsanitize=fuzzer-no-link)
+  set(PAINTLAB_SANITIZE ON)
+endif()
 if(PAINTLAB_SANITIZE)
   add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
   # GCC 12 reports false maybe-uninitialized warnings inside libstdc++'s std::regex /
   # std::function under sanitizer instrumentation: keep them visible, not fatal.
-  target_compile_options(paintlab_warnings INTERFACE -Wno-error=maybe-uninitialized)
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+    target_compile_options(paintlab_warnings INTERFACE -Wno-error=maybe-uninitialized)
+  endif()
   add_link_options(-fsanitize=address,undefined)
   # Eigen picks its allocator at compile time: under ASan (__SANITIZE_ADDRESS__) it falls back
   # to a hand-made aligned malloc that offsets the pointer, while Debian's uninstrumented

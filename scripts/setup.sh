@@ -15,6 +15,8 @@ packages=(
   libssl-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev googletest libbenchmark-dev
+  # fuzzing (scripts/fuzz.sh): clang with the libFuzzer and sanitizer runtimes
+  clang libclang-rt-14-dev
   # test peers: Aravis fake camera, pty pairs, USB descriptors, an independent Modbus stack,
   # OpenCV's sample chessboard photos
   # (arv-fake-gv-camera-0.8 is in aravis-tools, arv-tool-0.8 in aravis-tools-cli; pymodbus.server

@@ -35,6 +35,7 @@ using detail::kBlockValues;
 namespace {
 
 using detail::Int4;
+using detail::shuffle_lanes;
 
 // e = s1 / s2 and var = s3 / s2^2 (then / gain, / gain^2) of a block of values; ok where s2 > 0
 // (where s2 = 0, no exposure had weight: the sums are divided by 1 instead, which leaves the
@@ -46,15 +47,15 @@ void sums_to_radiance(const Float4* acc, const float* gain, std::size_t m, float
   const Float4 zero = {0.0f, 0.0f, 0.0f, 0.0f};
   std::size_t k = 0;
   for (; k + 4 <= m; k += 4) {
-    const Float4 t0 = __builtin_shuffle(acc[k], acc[k + 1], Int4{0, 4, 1, 5});
-    const Float4 t1 = __builtin_shuffle(acc[k + 2], acc[k + 3], Int4{0, 4, 1, 5});
-    const Float4 t2 = __builtin_shuffle(acc[k], acc[k + 1], Int4{2, 6, 3, 7});
-    const Float4 t3 = __builtin_shuffle(acc[k + 2], acc[k + 3], Int4{2, 6, 3, 7});
-    const Float4 c0 = __builtin_shuffle(t0, t1, Int4{0, 1, 4, 5});
-    const Float4 s2 = __builtin_shuffle(t0, t1, Int4{2, 3, 6, 7});
-    const Float4 s3 = __builtin_shuffle(t2, t3, Int4{0, 1, 4, 5});
+    const Float4 t0 = shuffle_lanes<0, 4, 1, 5>(acc[k], acc[k + 1]);
+    const Float4 t1 = shuffle_lanes<0, 4, 1, 5>(acc[k + 2], acc[k + 3]);
+    const Float4 t2 = shuffle_lanes<2, 6, 3, 7>(acc[k], acc[k + 1]);
+    const Float4 t3 = shuffle_lanes<2, 6, 3, 7>(acc[k + 2], acc[k + 3]);
+    const Float4 c0 = shuffle_lanes<0, 1, 4, 5>(t0, t1);
+    const Float4 s2 = shuffle_lanes<2, 3, 6, 7>(t0, t1);
+    const Float4 s3 = shuffle_lanes<0, 1, 4, 5>(t2, t3);
     Float4 s1 = c0;
-    if (kDark) s1 = c0 + __builtin_shuffle(t2, t3, Int4{2, 3, 6, 7});
+    if (kDark) s1 = c0 + shuffle_lanes<2, 3, 6, 7>(t2, t3);
     const Int4 good = s2 > zero;
     const Float4 den = good ? s2 : one;
     Float4 ek = s1 / den;

@@ -20,6 +20,16 @@ namespace paintlab::acq::detail {
 typedef float Float4 __attribute__((vector_size(16)));
 typedef int Int4 __attribute__((vector_size(16)));
 
+// Lanes I0..I3 of the eight lanes of (a, b): GCC's and clang's builtins for the same shuffle.
+template <int I0, int I1, int I2, int I3>
+inline Float4 shuffle_lanes(Float4 a, Float4 b) {
+#if defined(__clang__)
+  return __builtin_shufflevector(a, b, I0, I1, I2, I3);
+#else
+  return __builtin_shuffle(a, b, Int4{I0, I1, I2, I3});
+#endif
+}
+
 // Values per block: whole RGB pixels and a multiple of the vector width.
 inline constexpr std::size_t kBlockValues = 240;
 

@@ -16,6 +16,8 @@ Json read_json_file(const fs::path& path) {
     return Json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw DataError(path.string() + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
+  } catch (const nlohmann::json::exception& e) {  // a number out of range (1e400)
+    throw DataError(path.string() + ": not valid JSON: " + e.what());
   }
 }
 
@@ -38,7 +40,7 @@ std::vector<Json> read_jsonl_file(const fs::path& path, bool* torn_tail) {
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
     try {
       out.push_back(Json::parse(line));
-    } catch (const nlohmann::json::parse_error& e) {
+    } catch (const nlohmann::json::exception& e) {  // parse_error, or a number out of range (1e400)
       if (last_without_newline) {
         if (torn_tail) *torn_tail = true;
         break;

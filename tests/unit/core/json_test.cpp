@@ -68,3 +68,24 @@ TEST(Json, JsonlCorruptMiddleLineIsAnError) {
     EXPECT_THAT(std::string(e.what()), HasSubstr("j.jsonl:2: not valid JSON"));
   }
 }
+
+// Found by fuzz_records_json: a number beyond double's range is nlohmann's out_of_range, not a
+// parse_error; it must still be the DataError naming the file (it escaped as "internal error").
+TEST(Json, NumberOutOfRangeIsADataErrorNamingTheFile) {
+  test::TempDir d;
+  test::write_text(d / "sphere.json", "{\"radius_m\": 1e400}");
+  try {
+    read_json_file(d / "sphere.json");
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("sphere.json: not valid JSON"));
+    EXPECT_THAT(std::string(e.what()), HasSubstr("1e400"));
+  }
+  test::write_text(d / "j.jsonl", "{\"a\":1}\n{\"a\":-1e999}\n{\"a\":2}\n");
+  try {
+    read_jsonl_file(d / "j.jsonl");
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("j.jsonl:2: not valid JSON"));
+  }
+}

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer harnesses of tests/fuzz with clang (ASan+UBSan) and runs each for
+# SECONDS (default 30) on a corpus seeded from the project's own files; fails on the first
+# crash, sanitizer report, leak or hang (libFuzzer writes the input as crash-*/leak-*/timeout-*
+# into build-fuzz/findings/HARNESS/).
+# Usage: bash scripts/fuzz.sh [SECONDS] [HARNESS...]   (harnesses: rig_toml paint_toml
+#        records_json exr merl axf; default all). Set up with scripts/setup.sh first.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-30}
+shift || true
+harnesses=("$@")
+[ ${#harnesses[@]} -gt 0 ] || harnesses=(rig_toml paint_toml records_json exr merl axf)
+BUILD=${PAINTLAB_FUZZ_BUILD_DIR:-build-fuzz}
+CC=clang CXX=clang++ cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+  "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -g1" "-DCMAKE_C_FLAGS_DEBUG=-O1 -g1" -DPAINTLAB_FUZZ=ON \
+  -DPAINTLAB_BUILD_TESTS=OFF -DPAINTLAB_BUILD_BENCH=OFF >/dev/null
+targets=()
+for h in "${harnesses[@]}"; do targets+=("fuzz_$h"); done
+cmake --build "$BUILD" -j "${PAINTLAB_JOBS:-$(nproc)}" --target "${targets[@]}"
+
+seed_files() {  # the project's own files of each kind
+  case "$1" in
+    rig_toml) ls examples/*.toml ;;
+    paint_toml) ls paints/*.toml ;;
+    *) ;;
+  esac
+}
+status=0
+for h in "${harnesses[@]}"; do
+  corpus="$BUILD/corpus/$h" findings="$BUILD/findings/$h"
+  mkdir -p "$corpus" "$findings"
+  [ -d "tests/fuzz/seeds/$h" ] && cp -n tests/fuzz/seeds/"$h"/* "$corpus"/ 2>/dev/null || true
+  for f in $(seed_files "$h"); do cp -n "$f" "$corpus"/; done
+  echo "== fuzz_$h: ${seconds} s on $(ls "$corpus" | wc -l) inputs =="
+  # detect_leaks: a leak is a finding (tests/fuzz/lsan.supp: the third-party ones, with why). -rss_limit_mb bounds what one input may allocate;
+  # -timeout: an input that takes over 10 s is a hang.
+  if ! ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+       "$BUILD/tests/fuzz/fuzz_$h" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+       -print_final_stats=1 -artifact_prefix="$findings/" "$corpus" 2>"$BUILD/fuzz_$h.log"; then
+    echo "fuzz_$h: FOUND A PROBLEM (input in $findings/); the end of its log:"
+    tail -40 "$BUILD/fuzz_$h.log"
+    status=1
+  else
+    grep -E 'stat::number_of_executed_units|stat::peak_rss_mb' "$BUILD/fuzz_$h.log" | tr '\n' ' '
+    echo
+  fi
+done
+exit $status
