@@ -33,10 +33,10 @@ for h in "${harnesses[@]}"; do
   [ -d "tests/fuzz/seeds/$h" ] && cp -n tests/fuzz/seeds/"$h"/* "$corpus"/ 2>/dev/null || true
   for f in $(seed_files "$h"); do cp -n "$f" "$corpus"/; done
   echo "== fuzz_$h: ${seconds} s on $(ls "$corpus" | wc -l) inputs =="
-  # detect_leaks: a leak is a finding (tests/fuzz/lsan.supp: the third-party ones, with why). -rss_limit_mb bounds what one input may allocate;
+  # detect_leaks: a leak is a finding (tests/fuzz/lsan.supp: the third-party ones, with why). -malloc_limit_mb bounds one allocation, -rss_limit_mb the process (ASan keeps freed memory);
   # -timeout: an input that takes over 10 s is a hang.
   if ! ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-       "$BUILD/tests/fuzz/fuzz_$h" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+       "$BUILD/tests/fuzz/fuzz_$h" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -malloc_limit_mb=2048 \
        -print_final_stats=1 -artifact_prefix="$findings/" "$corpus" 2>"$BUILD/fuzz_$h.log"; then
     echo "fuzz_$h: FOUND A PROBLEM (input in $findings/); the end of its log:"
     tail -40 "$BUILD/fuzz_$h.log"

@@ -11,6 +11,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <mutex>
+
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
 
@@ -84,11 +90,27 @@ void write_exr(const fs::path& path, const ExrImage& image, bool half) {
 ExrImage read_exr(const fs::path& path) {
   if (!fs::exists(path)) throw IoError(path.string(), "no such file");
   try {
+    // OpenEXR checks the header's window and tile sizes against these before it allocates the
+    // line-offset table of a damaged file (process-wide; set once, before the first open).
+    static std::once_flag limits;
+    std::call_once(limits, [] {
+      Imf::Header::setMaxImageSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
+      Imf::Header::setMaxTileSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
+    });
     Imf::InputFile file(path.c_str());
     Imath::Box2i dw = file.header().dataWindow();
+    // A damaged header can state any window: bound it before allocating (the largest image a
+    // rig writes is a few Mpx; a window of 2^31 rows would otherwise overflow or exhaust memory).
+    const std::int64_t w = std::int64_t{dw.max.x} - dw.min.x + 1, h = std::int64_t{dw.max.y} - dw.min.y + 1;
+    std::int64_t channels = 0;
+    for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it) ++channels;
+    if (w < 1 || h < 1 || w > kMaxExrSide || h > kMaxExrSide || w * h * std::max<std::int64_t>(channels, 1) > kMaxExrValues)
+      throw DataError(fmt::format("{}: data window {} x {} with {} channels is outside what paintlab reads (sides 1..{}, "
+                                  "at most {} values)",
+                                  path.string(), w, h, channels, kMaxExrSide, kMaxExrValues));
     ExrImage img;
-    img.width = dw.max.x - dw.min.x + 1;
-    img.height = dw.max.y - dw.min.y + 1;
+    img.width = static_cast<int>(w);
+    img.height = static_cast<int>(h);
     for (auto it = file.header().begin(); it != file.header().end(); ++it) {
       if (auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute())) img.attributes[it.name()] = s->value();
     }

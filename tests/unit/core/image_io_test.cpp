@@ -1,5 +1,12 @@
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <cstring>
+#include <utility>
+#include <vector>
+
+#include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/image_io.h"
 #include "test_util.h"
@@ -45,4 +52,37 @@ TEST(ImageIo, BadFilesAreNamedErrors) {
   EXPECT_THROW(read_exr(d / "missing.exr"), IoError);
   test::write_text(d / "x.png", "not a png");
   EXPECT_THROW(read_raw_image(d / "x.png"), DataError);
+}
+
+// A damaged header that states a huge data window is a DataError naming the file, never an
+// allocation of the stated size (fuzzing read_exr: such headers made reads allocate hundreds of MB).
+TEST(ImageIo, ExrWithAHugeDataWindowIsADataErrorNotAnAllocation) {
+  test::TempDir d;
+  ExrImage img;
+  img.add("Y", ImageF(4, 3, 1, 0.25f));
+  write_exr(d / "small.exr", img);
+  std::string bytes = read_file(d / "small.exr");
+  // The attribute is "dataWindow\0box2i\0" + int32 size 16 + xmin, ymin, xmax, ymax.
+  const std::string key("dataWindow\0box2i\0", 17);
+  const std::size_t at = bytes.find(key);
+  ASSERT_NE(at, std::string::npos);
+  const auto damaged_with = [&](std::vector<std::pair<int, std::int32_t>> fields) {
+    std::string damaged = bytes;
+    for (const auto& [field, value] : fields)
+      std::memcpy(damaged.data() + at + key.size() + 4 + 4 * field, &value, sizeof value);
+    test::write_text(d / "damaged.exr", damaged);
+    return d / "damaged.exr";
+  };
+  // Sides beyond kMaxExrSide (OpenEXR's own limit, set by read_exr), a window of 30000 x 30000
+  // (within the sides, 9e8 values: read_exr's value bound, or OpenEXR's check of the line-offset
+  // table, whichever the file reaches first), a window whose end lies before its start.
+  for (const auto& fields : std::vector<std::vector<std::pair<int, std::int32_t>>>{
+           {{3, 1 << 30}}, {{2, 29999}, {3, 29999}}, {{2, -5}}}) {
+    try {
+      (void)read_exr(damaged_with(fields));
+      ADD_FAILURE() << "field " << fields[0].first << " = " << fields[0].second << " was read";
+    } catch (const DataError& e) {
+      EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("damaged.exr"));
+    }
+  }
 }

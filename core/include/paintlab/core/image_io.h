@@ -27,6 +27,11 @@ struct ExrImage {
 
 // Writes channels as 32-bit float (or half when `half` is set), ZIP compressed.
 void write_exr(const std::filesystem::path& path, const ExrImage& image, bool half = false);
+// What read_exr accepts: sides of 1..kMaxExrSide pixels and at most kMaxExrValues values
+// (width x height x channels, 512 MB of floats: a 20 Mpx radiance map with six planes fits); a
+// header outside them is a DataError before the planes are allocated. A rig's images are a few Mpx.
+inline constexpr std::int64_t kMaxExrSide = 32768;
+inline constexpr std::int64_t kMaxExrValues = std::int64_t{1} << 27;
 ExrImage read_exr(const std::filesystem::path& path);
 
 // A camera-value image read from PNG/TIFF/PGM: 8 or 16 bit, 1 or 3 channels.
