@@ -138,28 +138,6 @@ TEST(FitCli, AFitThatDoesNotConvergeIsWrittenAndExitsOne) {
   EXPECT_THAT(l.err, HasSubstr("did not converge"));
 }
 
-// The frames of a simulated sweep as a session folder `dir` (session.json, journal.jsonl,
-// hdr/pos_XXX.exr), as paintlab measure leaves it; the plan holds `extra_planned` more
-// positions than were measured.
-void write_session(const test_support::SimSession& sim, const fs::path& dir, int extra_planned = 0) {
-  acq::SessionManifest m;
-  m.sample = "Solid Blue #2";
-  m.exposures_s = {0.01};
-  for (const HdrFrame& f : sim.frames) m.angles_deg.push_back(f.angle_deg);
-  for (int k = 0; k < extra_planned; ++k) m.angles_deg.push_back(m.angles_deg.back() + 1.0);
-  const acq::SessionDir session = acq::SessionDir::create(dir, m);
-  for (std::size_t i = 0; i < sim.frames.size(); ++i) {
-    const int index = static_cast<int>(i);
-    fs::copy_file(sim.frames[i].path, session.hdr_path(index));
-    acq::JournalEntry e;
-    e.index = index;
-    e.angle_deg = e.angle_read_deg = sim.frames[i].angle_deg;
-    e.file = acq::SessionDir::hdr_name(index);
-    e.sha256 = sha256_file(session.hdr_path(index));
-    session.journal().append(e);
-  }
-}
-
 test_support::SimSessionOptions small_sweep() {
   test_support::SimSessionOptions o;
   o.width_px = 320;
@@ -174,7 +152,7 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   const brdf::PaintSpec spec = brdf::load_paint_file(test::source_dir() / "paints/solid-blue.toml");
   const auto sim = test_support::make_sim_session(sim::sim_paint(spec), small_sweep());
   const fs::path session = sim->dir / "session";
-  write_session(*sim, session);
+  test_support::write_session_folder(*sim, session, "Solid Blue #2");
   const std::string calib = " --calib " + sim->calibration_dir().string();
   const fs::path merl = sim->dir / "blue.binary";
   auto r = test::run_paintlab("bin " + session.string() + calib + " --out " + merl.string());
@@ -218,7 +196,7 @@ TEST(FitCli, SessionsWithMissingPositionsOrWithoutCalibrationAreRejected) {
                                                       test::source_dir() / "paints/solid-blue.toml")),
                                                   o);
   const fs::path session = sim->dir / "session";
-  write_session(*sim, session, 2);
+  test_support::write_session_folder(*sim, session, "Solid Blue #2", 2);
   const fs::path out = sim->dir / "fit.json", merl = sim->dir / "t.binary";
   const std::string calib = " --calib " + sim->calibration_dir().string();
   auto r = test::run_paintlab("fit " + session.string() + calib + " --out " + out.string());
@@ -230,7 +208,7 @@ TEST(FitCli, SessionsWithMissingPositionsOrWithoutCalibrationAreRejected) {
   EXPECT_THAT(r.err, HasSubstr("missing"));
   // A complete session whose rig file is unknown needs --calib.
   const fs::path complete = sim->dir / "complete";
-  write_session(*sim, complete);
+  test_support::write_session_folder(*sim, complete, "Solid Blue #2");
   r = test::run_paintlab("bin " + complete.string() + " --out " + merl.string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("--calib"));

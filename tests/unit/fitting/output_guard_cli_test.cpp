@@ -36,26 +36,6 @@ std::map<std::string, std::string> guard_hashes(const fs::path& dir) {
   return h;
 }
 
-// A small simulated measurement (5 positions, 45 degrees apart) as the session folder `dir`
-// that paintlab measure leaves, fittable with --calib sim.calibration_dir().
-void guard_write_session(const test_support::SimSession& sim, const fs::path& dir) {
-  acq::SessionManifest m;
-  m.sample = "guarded";
-  m.exposures_s = {0.01};
-  for (const HdrFrame& f : sim.frames) m.angles_deg.push_back(f.angle_deg);
-  const acq::SessionDir session = acq::SessionDir::create(dir, m);
-  for (std::size_t i = 0; i < sim.frames.size(); ++i) {
-    const int index = static_cast<int>(i);
-    fs::copy_file(sim.frames[i].path, session.hdr_path(index));
-    acq::JournalEntry e;
-    e.index = index;
-    e.angle_deg = e.angle_read_deg = sim.frames[i].angle_deg;
-    e.file = acq::SessionDir::hdr_name(index);
-    e.sha256 = sha256_file(session.hdr_path(index));
-    session.journal().append(e);
-  }
-}
-
 std::unique_ptr<test_support::SimSession> guard_small_sim() {
   test_support::SimSessionOptions o;
   o.width_px = 320;
@@ -71,7 +51,7 @@ TEST(OutputGuardCli, FitBinAndExportNeverWriteIntoTheSessionTheyRead) {
   const auto sim = guard_small_sim();
   ASSERT_GE(sim->frames.size(), 4u);
   const fs::path s = sim->dir / "S";
-  guard_write_session(*sim, s);
+  test_support::write_session_folder(*sim, s, "guarded");
   const std::string calib = " --calib " + sim->calibration_dir().string();
   const auto before = guard_hashes(s);
   const std::string inside = " is inside the session folder " + s.string() +
@@ -103,7 +83,7 @@ TEST(OutputGuardCli, FitBinAndExportNeverWriteIntoTheSessionTheyRead) {
 TEST(OutputGuardCli, AMissingOutputFolderIsFoundBeforeTheFit) {
   const auto sim = guard_small_sim();
   const fs::path s = sim->dir / "S";
-  guard_write_session(*sim, s);
+  test_support::write_session_folder(*sim, s, "guarded");
   const std::string calib = " --calib " + sim->calibration_dir().string();
   const fs::path missing = sim->dir / "no-such-folder";
   const auto t0 = std::chrono::steady_clock::now();

@@ -12,12 +12,14 @@
 #include <random>
 #include <vector>
 
+#include "paintlab/acquisition/session.h"
 #include "paintlab/calibration/intrinsics.h"
 #include "paintlab/calibration/light.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/calibration/scale.h"
 #include "paintlab/calibration/sphere.h"
+#include "paintlab/core/hash.h"
 #include "paintlab/core/image_io.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/fitting/extraction.h"
@@ -131,6 +133,29 @@ inline std::unique_ptr<SimSession> make_sim_session(const sim::SimPaint& paint, 
     s->frames.push_back({path, a});
   }
   return s;
+}
+
+// The frames of a simulated sweep as a session folder `dir` (session.json, journal.jsonl,
+// hdr/pos_XXX.exr), as paintlab measure leaves it, for sample `sample`; the plan holds
+// `extra_planned` more positions than were measured.
+inline void write_session_folder(const SimSession& sim, const std::filesystem::path& dir, const std::string& sample,
+                                 int extra_planned = 0) {
+  acq::SessionManifest m;
+  m.sample = sample;
+  m.exposures_s = {0.01};
+  for (const HdrFrame& f : sim.frames) m.angles_deg.push_back(f.angle_deg);
+  for (int k = 0; k < extra_planned; ++k) m.angles_deg.push_back(m.angles_deg.back() + 1.0);
+  const acq::SessionDir session = acq::SessionDir::create(dir, m);
+  for (std::size_t i = 0; i < sim.frames.size(); ++i) {
+    const int index = static_cast<int>(i);
+    std::filesystem::copy_file(sim.frames[i].path, session.hdr_path(index));
+    acq::JournalEntry e;
+    e.index = index;
+    e.angle_deg = e.angle_read_deg = sim.frames[i].angle_deg;
+    e.file = acq::SessionDir::hdr_name(index);
+    e.sha256 = sha256_file(session.hdr_path(index));
+    session.journal().append(e);
+  }
 }
 
 }  // namespace paintlab::fit::test_support
