@@ -13,8 +13,10 @@ if(PAINTLAB_UNITY_BUILD AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
 endif()
 if(PAINTLAB_FUZZ)
   # Every library instrumented for libFuzzer's coverage (the harnesses add its main) and
-  # checked by ASan+UBSan, like the sanitizer build.
-  add_compile_options(-fsanitize=fuzzer-no-link)
+  # checked by ASan+UBSan: this is also the sanitizer build of .ci/run, whose test programs
+  # link the same libraries (ASan's runtime serves the coverage hooks without libFuzzer).
+  add_compile_options(-fsanitize=fuzzer-no-link
+                      -fsanitize-coverage-ignorelist=${PROJECT_SOURCE_DIR}/tests/fuzz/coverage-ignore.txt)
   set(PAINTLAB_SANITIZE ON)
 endif()
 if(PAINTLAB_SANITIZE)

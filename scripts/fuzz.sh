@@ -5,6 +5,7 @@
 # into build-fuzz/findings/HARNESS/).
 # Usage: bash scripts/fuzz.sh [SECONDS] [HARNESS...]   (harnesses: rig_toml paint_toml
 #        records_json exr merl axf; default all). Set up with scripts/setup.sh first.
+#        PAINTLAB_FUZZ_BUILD_DIR picks the build folder (default build-fuzz).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-30}
@@ -12,9 +13,13 @@ shift || true
 harnesses=("$@")
 [ ${#harnesses[@]} -gt 0 ] || harnesses=(rig_toml paint_toml records_json exr merl axf)
 BUILD=${PAINTLAB_FUZZ_BUILD_DIR:-build-fuzz}
-CC=clang CXX=clang++ cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
-  "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -g1" "-DCMAKE_C_FLAGS_DEBUG=-O1 -g1" -DPAINTLAB_FUZZ=ON \
-  -DPAINTLAB_BUILD_TESTS=OFF -DPAINTLAB_BUILD_BENCH=OFF >/dev/null
+# A folder already configured with PAINTLAB_FUZZ=ON (.ci/run's sanitizer build, which also
+# holds the test programs) is used as it is; otherwise a fuzz-only build is configured.
+if ! grep -qs '^PAINTLAB_FUZZ:BOOL=ON$' "$BUILD/CMakeCache.txt"; then
+  CC=clang CXX=clang++ cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+    "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -g1" "-DCMAKE_C_FLAGS_DEBUG=-O1 -g1" -DPAINTLAB_FUZZ=ON \
+    -DPAINTLAB_BUILD_TESTS=OFF -DPAINTLAB_BUILD_BENCH=OFF >/dev/null
+fi
 targets=()
 for h in "${harnesses[@]}"; do targets+=("fuzz_$h"); done
 cmake --build "$BUILD" -j "${PAINTLAB_JOBS:-$(nproc)}" --target "${targets[@]}"

@@ -4,20 +4,24 @@
 #include <cmath>
 #include <set>
 
+#include <fmt/format.h>
+
 #include "paintlab/core/error.h"
 
 namespace paintlab::acq {
 
 void AdaptiveOptions::check() const {
-  if (!(linear_saturation > 0) || !std::isfinite(linear_saturation))
-    throw UsageError("AdaptiveOptions::linear_saturation must be > 0");
+  auto fail = [](const char* field, double value, const char* rule) {
+    throw OptionError(std::string("AdaptiveOptions::") + field, fmt::format("{}", value), rule);
+  };
+  if (!(linear_saturation > 0) || !std::isfinite(linear_saturation)) fail("linear_saturation", linear_saturation, "> 0");
   if (!(linear_floor >= 0) || !(linear_floor < linear_saturation))
-    throw UsageError("AdaptiveOptions::linear_floor must be in [0, linear_saturation)");
-  if (!(margin >= 1)) throw UsageError("AdaptiveOptions::margin must be >= 1");
-  if (!(read_noise_dn >= 0) || !(gain_dn_per_e >= 0))
-    throw UsageError("AdaptiveOptions::read_noise_dn and gain_dn_per_e must be >= 0");
+    fail("linear_floor", linear_floor, "[0, linear_saturation)");
+  if (!(margin >= 1)) fail("margin", margin, ">= 1");
+  if (!(read_noise_dn >= 0)) fail("read_noise_dn", read_noise_dn, ">= 0");
+  if (!(gain_dn_per_e >= 0)) fail("gain_dn_per_e", gain_dn_per_e, ">= 0");
   if (!(max_information_loss >= 0) || !(max_information_loss < 1))
-    throw UsageError("AdaptiveOptions::max_information_loss must be in [0, 1)");
+    fail("max_information_loss", max_information_loss, "[0, 1)");
 }
 
 AdaptiveBracketing::AdaptiveBracketing(AdaptiveOptions options, Image<std::uint8_t> mask)

@@ -69,7 +69,7 @@ bool Journal::repair() const {
   fs::path torn_path = path_;
   torn_path += ".torn";
   write_file_atomic(torn_path, text.substr(keep));
-  if (::truncate(path_.c_str(), static_cast<off_t>(keep)) != 0) throw IoError(path_.string(), "cannot truncate", errno);
+  if (::truncate(path_.c_str(), static_cast<off_t>(keep)) != 0) throw IoError(path_.string(), "cannot truncate", errno, IoOp::Write);
   fsync_path(path_);
   return true;
 }

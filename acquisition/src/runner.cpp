@@ -78,7 +78,7 @@ struct StopRun {
 
 void RunnerOptions::check() const {
   auto bad = [](const char* field, double value, const char* rule) {
-    throw UsageError(fmt::format("RunnerOptions::{} = {}: {}", field, value, rule));
+    throw OptionError(std::string("RunnerOptions::") + field, fmt::format("{}", value), rule);
   };
   if (max_retries < 0 || max_retries > 100) bad("max_retries", max_retries, "0..100");
   if (!(retry_backoff_s >= 0.0) || !std::isfinite(retry_backoff_s)) bad("retry_backoff_s", retry_backoff_s, ">= 0 s");

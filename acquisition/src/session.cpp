@@ -87,7 +87,7 @@ SessionDir SessionDir::create(const fs::path& dir_in, SessionManifest manifest) 
       throw DataError(dir.string() + " is not empty and holds no session; choose an empty or new --out folder");
   }
   fs::create_directories(dir / "hdr", ec);
-  if (ec) throw IoError(dir.string(), "cannot create the session folder", ec.value());
+  if (ec) throw IoError(dir.string(), "cannot create the session folder", ec.value(), IoOp::Write);
   write_json_file(dir / kManifestFile, manifest.to_json());
   fsync_path(dir);
   return SessionDir(dir, std::move(manifest));

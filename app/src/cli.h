@@ -2,9 +2,12 @@
 // Shared pieces of the command line: how a subcommand registers the function it runs,
 // and the registration functions of every command group (one file per group).
 #include <CLI/CLI.hpp>
+#include <initializer_list>
 #include <functional>
 #include <memory>
 #include <string>
+
+#include "paintlab/core/error.h"
 
 namespace paintlab::app {
 
@@ -21,6 +24,25 @@ CLI::App* subcommand_group(CLI::App& app, const std::string& name, const std::st
 
 // Prints one result line to stdout (not through the logger, so -q keeps it).
 void say(const std::string& line);
+
+// Records that `option` (a flag such as --lobes) sets these fields of library options
+// structs ("CtFitOptions::lobes"), so that an OptionError on one of them names the flag the
+// user typed. Returns `option`, to be written beside the add_option that binds it.
+CLI::Option* sets_fields(CLI::Option* option, std::initializer_list<const char*> fields);
+// A validator for free-text flags (names, notes) that end up in JSON and HDF5 files, which
+// hold UTF-8 text: "--name: not valid UTF-8 text (byte 3 is 0xff)". Paths are not checked
+// (a Linux file name may be any bytes).
+const CLI::Validator& utf8_text();
+
+// "--lobes 9: allowed 1..3" for an OptionError whose field a flag sets; else what().
+std::string option_error_message(const OptionError& e);
+
+// CLI11 reports a mistyped command word ("paintlab calibrat", "paintlab rig valdate") as "A
+// subcommand is required": walks the command words of argv through the command tree and
+// throws UsageError naming the word and the commands that exist there. Command groups take
+// no options of their own, so every word that is not an option is a command word until a
+// command (a level without subcommands) is reached.
+void check_command_words(const CLI::App& app, int argc, const char* const* argv);
 
 void register_rig_commands(CLI::App& app);
 void register_paint_commands(CLI::App& app);

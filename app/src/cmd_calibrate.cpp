@@ -16,6 +16,7 @@
 #include <memory>
 #include <sstream>
 
+#include "rig_devices.h"
 #include "calibrate_support.h"
 #include "paintlab/calibration/procedure.h"
 #include "paintlab/core/input_files.h"
@@ -123,7 +124,7 @@ void check_calibration_outputs(const std::string& rig_file, const std::vector<st
   if (!out.empty()) {
     guard.output({"--out", out});
   } else {
-    const fs::path dir = RigConfig::load(rig_file).calibration_dir;
+    const fs::path dir = load_rig(rig_file).calibration_dir;
     for (const std::string& step : steps) {
       const std::string file = calib::procedure_step(step).file;
       std::vector<fs::path> written = {dir / file};
@@ -314,7 +315,7 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
   auto context = [](const std::string& rig_file, bool capture, double albedo,
                     std::unique_ptr<CalibSession>* keep) -> CalibrateContext {
     CalibrateContext c;
-    c.rig = RigConfig::load(rig_file);
+    c.rig = load_rig(rig_file);
     c.albedo = albedo;
     if (capture) {
       *keep = std::make_unique<CalibSession>(open_calib_session(c.rig, albedo));
@@ -390,7 +391,7 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
     on_run(cmd, [a, run, context, name = std::string(g.name)] {
       if (a->images.empty() == !a->capture) throw UsageError("calibrate " + name + ": give either --images or --capture");
       std::unique_ptr<CalibSession> keep;
-      require_step_inputs(RigConfig::load(a->rig), name);  // before any device opens
+      require_step_inputs(load_rig(a->rig), name);  // before any device opens
       check_calibration_outputs(a->rig, a->images, {name});
       CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
       run(c, a->images, a->angles);

@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 
+#include "rig_devices.h"
 #include "calibrate_support.h"
 #include "cli.h"
 #include "output_guard.h"
@@ -347,7 +348,7 @@ void check_step_outputs(const Args& a, const std::optional<RigConfig>& rig, cons
 template <class Args>
 void run_command(const Args& a, const char* step, const char* file, void (*run)(const Args&, const StepRun&)) {
   std::optional<RigConfig> rig;
-  if (!a.rig.empty()) rig = RigConfig::load(a.rig);
+  if (!a.rig.empty()) rig = load_rig(a.rig);
   StepRun r;
   r.step = step;
   r.out = output_path(a, rig, file, std::string("calibrate ") + step);

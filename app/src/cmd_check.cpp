@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "rig_devices.h"
 #include "calibrate_support.h"
 #include "paintlab/core/input_files.h"
 #include "cli.h"
@@ -65,7 +66,7 @@ void register_check_commands(CLI::App& app) {
   cmd->add_flag("--json", a->json, "print check.json instead of the table");
   on_run(cmd, [a] {
     if (a->capture && !a->images.empty()) throw UsageError("check: give --capture or --images, not both");
-    const RigConfig rig = RigConfig::load(a->rig);
+    const RigConfig rig = load_rig(a->rig);
     {
       // check.json goes into the calibration folder: never over the live images, never into a
       // session or library.

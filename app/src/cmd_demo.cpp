@@ -23,6 +23,7 @@
 #include <sstream>
 #include <toml++/toml.h>
 
+#include "rig_devices.h"
 #include "cli.h"
 #include "output_guard.h"
 #include "paintlab/brdf/paint.h"
@@ -328,7 +329,7 @@ int run_demo(const DemoArgs& a) {
   const fs::path paint_file = dir / (name + ".toml");
   write_file_atomic(rig_file, demo_rig_text(a.quick));
   write_file_atomic(paint_file, paint.toml_text);
-  const RigConfig rig = RigConfig::load(rig_file);
+  const RigConfig rig = load_rig(rig_file);
   const sim::SimConfig truth = sim::SimConfig::from_rig(rig);
   say(fmt::format("paintlab demo{}: the simulated rig ({}x{} px, {} light positions, {} exposures) measures {}",
                   a.quick ? " --quick" : "", rig.geometry.image_width_px, rig.geometry.image_height_px,
@@ -434,11 +435,13 @@ void register_demo_commands(CLI::App& app) {
   d->add_option("--out", a->out, "Folder for everything the demo writes (new, or an earlier demo's)")->required();
   d->add_option("--paint", a->paint, "Paint file to measure (default: the built-in silver-metallic)");
   d->add_flag("--quick", a->quick, "Half resolution, light every 10 deg, 8 exposures (under 2 minutes)");
-  d->add_option("--lobes", a->lobes, "Cook-Torrance lobes to fit (default: the paint's, at most 3)");
+  sets_fields(d->add_option("--lobes", a->lobes, "Cook-Torrance lobes to fit (default: the paint's, at most 3)"),
+              {"CtFitOptions::lobes"});
   d->add_flag("--keep-going", a->keep_going, "Measure even when the rig check fails");
-  d->add_option("--max-iterations", a->max_iterations,
-                "Iterations of the fit's final solve (paintlab fit --max-iterations); a fit that stops there is "
-                "exported and summarised all the same, and the demo exits 1")
+  sets_fields(d->add_option("--max-iterations", a->max_iterations,
+                            "Iterations of the fit's final solve (paintlab fit --max-iterations); a fit that stops "
+                            "there is exported and summarised all the same, and the demo exits 1"),
+              {"CtFitOptions::max_iterations"})
       ->capture_default_str();
   on_run(d, [a] { return run_demo(*a); });
 }

@@ -4,6 +4,7 @@
 // turntable. Exit 0 when every configured real device answers, 1 otherwise.
 #include <fmt/format.h>
 
+#include "rig_devices.h"
 #include "cli.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/devices/aravis_camera.h"
@@ -32,8 +33,7 @@ void register_devices_commands(CLI::App& app) {
     int missing = 0;
     std::optional<RigConfig> rig;
     if (!args->rig.empty()) {
-      rig = RigConfig::load(args->rig);
-      dev::validate_device_sections(*rig);
+      rig = load_rig(args->rig);
     }
 
     // Cameras.

@@ -10,6 +10,7 @@
 #include "extract_options.h"
 #include "output_guard.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/input_files.h"
 #include "paintlab/core/json.h"
 #include "paintlab/core/log.h"
 #include "paintlab/fitting/axf_file.h"
@@ -77,7 +78,7 @@ int run_export(const ExportArgs& a) {
 int run_validate(const std::vector<std::string>& files) {
   int invalid = 0;
   for (const auto& f : files) {
-    if (!fs::exists(f)) throw IoError(f, "no such file");
+    require_readable_file(f);  // a missing file, a folder, an unreadable one: exit 2
     const fit::AxfValidation v = fit::validate_axf_file(f);
     if (v.ok()) {
       std::string what = v.format == fit::kAxfLibraryFormat
@@ -110,11 +111,15 @@ void register_export_commands(CLI::App& app) {
   args->model_option =
       exp->add_option("--model", args->model, "Session only: model to fit: cook-torrance, axf-carpaint or both")
           ->capture_default_str();
-  args->lobes_option = exp->add_option("--lobes", args->lobes, "Session only: lobes of the fit, 1..3")->capture_default_str();
-  exp->add_option("--name", args->name, "Paint name (default: the sample name or the fit's name)");
+  args->lobes_option = sets_fields(exp->add_option("--lobes", args->lobes, "Session only: lobes of the fit, 1..3"),
+                                   {"CtFitOptions::lobes", "AxfFitOptions::lobes"})
+                           ->capture_default_str();
+  exp->add_option("--name", args->name, "Paint name (default: the sample name or the fit's name)")->check(utf8_text());
   exp->add_option("--fit-out", args->fit_out, "Session only, with --axf: also write the fit as fit.json");
   exp->add_option("--seed", args->seed, "Seed of the fit's random starts")->capture_default_str();
-  exp->add_option("--threads", args->extract.threads, "Worker threads, 0 = all cores")->capture_default_str();
+  sets_fields(exp->add_option("--threads", args->extract.threads, "Worker threads, 0 = all cores"),
+              {"ExtractionOptions::threads", "BinningOptions::threads", "CtFitOptions::threads"})
+      ->capture_default_str();
   add_extract_options(exp, args->extract);
   on_run(exp, [args] { return run_export(*args); });
 

@@ -78,8 +78,27 @@ int run_fit(const FitArgs& a) {
   } else {
     req.name = fit::paint_name_from(a.name.empty() ? input.stem().string() : a.name);
     spdlog::info("reading {}", a.input);
-    const brdf::MerlTable table = brdf::read_merl(input);
-    const Json in = {{"kind", "merl"}, {"path", fs::absolute(input).string()}};
+    brdf::MerlTable table = brdf::read_merl(input);
+    Json in = {{"kind", "merl"}, {"path", fs::absolute(input).string()}};
+    // Filled bins are not measurements: said at once, and left out of the fit when the
+    // coverage map `bin` wrote beside the table tells which they are.
+    const fs::path cov = fit::coverage_map_path_for(input);
+    const std::size_t measured = table.count_in_state(brdf::BinState::Measured);
+    if (fs::exists(cov)) {
+      const std::size_t filled = fit::mark_filled_bins(cov, table);
+      in["coverage_map"] = fs::absolute(cov).string();
+      in["filled_bins_left_out"] = filled;
+      if (filled > 0)
+        spdlog::warn("{}: {} of its {} bins were filled by `paintlab bin --fill` ({} says so); filled bins are not "
+                     "measurements, so the fit uses the {} measured ones",
+                     a.input, filled, measured, cov.string(), measured - filled);
+    } else if (static_cast<double>(measured) > 0.9 * static_cast<double>(fit::coverage(table).total.valid_bins)) {
+      spdlog::warn("{}: {} bins hold values, nearly every bin a rig can measure, and no coverage map ({}) says "
+                   "which were measured; if the table was filled (`paintlab bin --fill`), filled bins are fitted "
+                   "as measurements, and a fit over this many bins takes minutes (fit the unfilled table, or keep "
+                   "its coverage map beside it)",
+                   a.input, measured, cov.filename().string());
+    }
     spdlog::info("fitting {} ({} measured bins)", fit::to_string(req.model),
                  table.count_in_state(brdf::BinState::Measured));
     outcome = fit::fit_table(table, nullptr, req, in);
@@ -116,7 +135,7 @@ int run_bin(const BinArgs& a) {
   fs::path cov(a.coverage);
   OutputSpec cov_spec("--coverage", cov);
   if (cov.empty()) {
-    cov = out.parent_path() / (out.stem().string() + ".coverage.exr");
+    cov = fit::coverage_map_path_for(out);
     cov_spec = OutputSpec("--out", cov);
     cov_spec.beside = out;
   }
@@ -153,16 +172,23 @@ void register_fit_commands(CLI::App& app) {
       "the solver's termination), 2 on bad input (nothing is written then).");
   fit->add_option("INPUT", args->input, "Session folder or MERL .binary table")->required();
   fit->add_option("--model", args->model, "Model to fit: cook-torrance or axf-carpaint")->capture_default_str();
-  fit->add_option("--lobes", args->lobes, "Lobes (Cook-Torrance, or the car paint's achromatic lobes), 1..3")->capture_default_str();
+  sets_fields(fit->add_option("--lobes", args->lobes, "Lobes (Cook-Torrance, or the car paint's achromatic lobes), 1..3"),
+              {"CtFitOptions::lobes", "AxfFitOptions::lobes"})
+      ->capture_default_str();
   fit->add_option("--out", args->out, "fit.json to write")->required();
-  fit->add_option("--name", args->name, "Paint name in fit.json (default: the session's sample, or the file name)");
+  fit->add_option("--name", args->name, "Paint name in fit.json (default: the session's sample, or the file name)")->check(utf8_text());
   fit->add_option("--seed", args->seed, "Seed of the random starts (the fit is deterministic for a seed)")
       ->capture_default_str();
-  fit->add_option("--threads", args->extract.threads, "Worker threads, 0 = all cores")->capture_default_str();
-  fit->add_option("--max-iterations", args->max_iterations, "Iterations of the final solve")->capture_default_str();
-  fit->add_option("--min-samples", args->min_samples,
+  sets_fields(fit->add_option("--threads", args->extract.threads, "Worker threads, 0 = all cores"),
+              {"ExtractionOptions::threads", "BinningOptions::threads", "CtFitOptions::threads"})
+      ->capture_default_str();
+  sets_fields(fit->add_option("--max-iterations", args->max_iterations, "Iterations of the final solve"),
+              {"CtFitOptions::max_iterations", "AxfFitOptions::max_iterations"})
+      ->capture_default_str();
+  sets_fields(fit->add_option("--min-samples", args->min_samples,
                   "Pool neighbouring phi_d bins into fit points of at least this many samples (sessions with flake "
-                  "sparkle: 16 or more)")
+                  "sparkle: 16 or more)"),
+              {"FitDataOptions::min_samples"})
       ->capture_default_str();
   fit->add_option("--residuals", args->residuals,
                   "Cook-Torrance residuals: log, or linear (weights from the neighbouring bins and the sparkle-aware "
@@ -183,7 +209,9 @@ void register_fit_commands(CLI::App& app) {
   bin->add_flag("--fill", bargs->fill,
                 "Fill the holes (phi_d mirror, then push-pull) before writing; the file cannot mark filled bins, "
                 "the coverage map's state channel does. Do not fit a filled table.");
-  bin->add_option("--threads", bargs->extract.threads, "Worker threads, 0 = all cores")->capture_default_str();
+  sets_fields(bin->add_option("--threads", bargs->extract.threads, "Worker threads, 0 = all cores"),
+              {"ExtractionOptions::threads", "BinningOptions::threads"})
+      ->capture_default_str();
   add_extract_options(bin, bargs->extract);
   on_run(bin, [bargs] { return run_bin(*bargs); });
 }

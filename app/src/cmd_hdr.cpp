@@ -9,6 +9,7 @@
 #include <chrono>
 #include <memory>
 
+#include "rig_devices.h"
 #include "cli.h"
 #include "output_guard.h"
 #include "paintlab/acquisition/hdr_merge.h"
@@ -64,7 +65,7 @@ void register_hdr_commands(CLI::App& app) {
     // The rig's calibration files, each replaced by the one given explicitly.
     std::string response = a->response, dark = a->dark, flat = a->flat;
     if (!a->rig.empty()) {
-      const RigConfig rig = RigConfig::load(a->rig);
+      const RigConfig rig = load_rig(a->rig);
       const auto rig_file = [&](std::string* file, const char* name) {
         if (file->empty() && fs::exists(rig.calibration_dir / name)) *file = (rig.calibration_dir / name).string();
       };

@@ -114,7 +114,7 @@ void register_library_commands(CLI::App& app) {
       "add", "Add a paint (an AxF-like .axf.h5, a fit.json or a paint .toml); creates the library if needed");
   dir_option(add);
   add->add_option("FILE", args->file, "paint to add")->required();
-  add->add_option("--name", args->name, "Name in the library (default: the paint's name)");
+  add->add_option("--name", args->name, "Name in the library (default: the paint's name)")->check(utf8_text());
   add->add_flag("--replace", args->replace, "Replace a paint of the same name (refused otherwise)");
   on_run(add, [args] { return run_add(*args); });
 

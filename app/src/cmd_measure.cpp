@@ -91,7 +91,7 @@ int run_measure(const MeasureArgs& a) {
     session.emplace(acq::SessionDir::open(a.resume));
     if (rig_path.empty()) rig_path = session->manifest().rig_file;
   }
-  RigConfig rig = RigConfig::load(rig_path);
+  RigConfig rig = load_rig(rig_path);
   if (resume && session->manifest().rig_sha256 != sha256_file(rig.file))
     spdlog::warn("{} changed since the session started; the session's plan is kept, devices and calibration come "
                  "from the current file",
@@ -165,11 +165,11 @@ void register_measure_commands(CLI::App& app) {
       "Writes DIR/session.json, DIR/journal.jsonl and DIR/hdr/pos_XXX.exr. Ctrl-C stops safely\n"
       "(LED off, table stopped); `paintlab measure --resume DIR` continues where it stopped.");
   m->add_option("--rig", a->rig, "rig.toml (for --resume: overrides the rig file recorded in the session)");
-  m->add_option("--sample", a->sample, "sample name (recorded in the session)");
+  m->add_option("--sample", a->sample, "sample name (recorded in the session)")->check(utf8_text());
   m->add_option("--out", a->out, "session folder to create (must be new or empty)");
   m->add_option("--resume", a->resume, "continue the session in this folder");
-  m->add_option("--notes", a->notes, "free-text notes recorded in session.json");
-  m->add_option("--operator", a->operator_name, "who measured (recorded in session.json)");
+  m->add_option("--notes", a->notes, "free-text notes recorded in session.json")->check(utf8_text());
+  m->add_option("--operator", a->operator_name, "who measured (recorded in session.json)")->check(utf8_text());
   m->add_flag("--keep-raw", a->keep_raw, "also keep every raw frame (16-bit PNG under DIR/raw/)");
   m->add_flag("--adaptive", a->adaptive,
               "adaptive bracketing: skip exposures that add no unsaturated pixel above the noise floor on the sphere\n"

@@ -91,21 +91,30 @@ void register_render_commands(CLI::App& app) {
   r->add_option("PAINT", args->paint, "paint: .axf.h5, fit.json or paint .toml")->required();
   r->add_option("--out", args->out, "PNG to write")->required();
   r->add_option("--env", args->env, "Equirectangular HDR environment map (.exr, 2:1)");
-  r->add_option("--env-intensity", args->env_intensity, "Multiplies the environment map")->capture_default_str();
-  r->add_flag("--no-point-light", args->no_point_light, "Light by the environment map only");
-  r->add_option("--size", args->size, "Image size in pixels (square)")->capture_default_str();
-  r->add_option("--light-azimuth", args->azimuth_deg, "Point light azimuth from the camera, deg (towards the right)")
+  sets_fields(r->add_option("--env-intensity", args->env_intensity, "Multiplies the environment map"),
+              {"PreviewOptions::environment_intensity"})
       ->capture_default_str();
-  r->add_option("--light-elevation", args->elevation_deg, "Point light elevation, deg (upwards)")->capture_default_str();
+  r->add_flag("--no-point-light", args->no_point_light, "Light by the environment map only");
+  sets_fields(r->add_option("--size", args->size, "Image size in pixels (square)"), {"PreviewOptions::size_px"})
+      ->capture_default_str();
+  sets_fields(r->add_option("--light-azimuth", args->azimuth_deg, "Point light azimuth from the camera, deg (towards the right)"),
+              {"PreviewOptions::light_azimuth_deg"})
+      ->capture_default_str();
+  sets_fields(r->add_option("--light-elevation", args->elevation_deg, "Point light elevation, deg (upwards)"),
+              {"PreviewOptions::light_elevation_deg"})
+      ->capture_default_str();
   r->add_option("--exposure", args->exposure, "Tone-mapping exposure (0 = automatic)")->capture_default_str();
-  r->add_option("--samples", args->samples, "Environment samples per strategy and pixel")->capture_default_str();
+  sets_fields(r->add_option("--samples", args->samples, "Environment samples per strategy and pixel"),
+              {"PreviewOptions::environment_samples"})
+      ->capture_default_str();
   r->add_option("--hdr", args->hdr, "Also write the linear image as EXR");
   r->add_option("--compare", args->compare, "Session folder to compare with");
   r->add_option("--angle", args->angle_deg, "--compare: table angle, deg (the nearest finished position)")
       ->capture_default_str();
   r->add_option("--calib", args->calib, "--compare: calibration folder (default: the session's rig's)");
-  r->add_option("--window", args->window_px,
-                "--compare: half size of the window the difference is averaged over, px (0: pixel by pixel)")
+  sets_fields(r->add_option("--window", args->window_px,
+                            "--compare: half size of the window the difference is averaged over, px (0: pixel by pixel)"),
+              {"CompareOptions::window_px"})
       ->capture_default_str();
   on_run(r, [args] { return run_render(*args); });
 }

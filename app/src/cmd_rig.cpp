@@ -3,7 +3,7 @@
 
 #include "cli.h"
 #include "paintlab/core/rig.h"
-#include "paintlab/devices/device_config.h"
+#include "rig_devices.h"
 
 namespace paintlab::app {
 
@@ -21,8 +21,8 @@ void register_rig_commands(CLI::App& app) {
   validate->add_option("FILE", args->file, "rig.toml to check")->required();
   validate->add_flag("--json", args->json, "Print the parsed rig as JSON");
   on_run(validate, [args] {
-    RigConfig r = RigConfig::load(args->file);
-    dev::validate_device_sections(r);  // the kind-specific keys of [devices.*]
+    // Every key: RigConfig's, the devices' for their kinds, the simulator's [sim].
+    const RigConfig r = load_rig(args->file);
     if (args->json) {
       say(r.to_json().dump(2));
       return 0;
@@ -45,6 +45,7 @@ void register_rig_commands(CLI::App& app) {
                     p.angle_start_deg, p.angle_stop_deg, p.angle_step_deg));
     say(fmt::format("  exposure bracket    {} exposures, {:.4g} ms to {:.4g} ms", p.exposures_s.size(),
                     p.exposures_s.front() * 1e3, p.exposures_s.back() * 1e3));
+    if (r.sim) say("  simulator           [sim] valid");
     return 0;
   });
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <memory>
 
+#include "rig_devices.h"
 #include "cli.h"
 #include "output_guard.h"
 #include "paintlab/core/error.h"
@@ -51,7 +52,7 @@ int run_render(const RenderArgs& a) {
   if (a.scene == "sphere" && a.paint.empty()) throw UsageError("--paint is required for the sphere scene");
   OutputGuard().input("--rig", a.rig).input("--paint", a.paint).output({"--out", a.out}).check();
 
-  const RigConfig rig = RigConfig::load(a.rig);
+  const RigConfig rig = load_rig(a.rig);
   sim::SimWorld world(sim::SimConfig::from_rig(rig));
   const double exposure_s = a.exposure_ms * 1e-3;
   sim::RenderOptions opt;

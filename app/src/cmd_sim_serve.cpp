@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <pthread.h>
 
+#include "rig_devices.h"
 #include "cli.h"
 #include "paintlab/core/log.h"
 #include "paintlab/core/rig.h"
@@ -34,7 +35,7 @@ void register_sim_serve_command(CLI::App& app) {
   serve->add_flag("--no-rtu", args->no_rtu, "Do not serve Modbus RTU on a pty pair (needs socat)");
   serve->add_flag("--no-camera", args->no_camera, "Do not serve the GigE Vision camera (port 3956)");
   on_run(serve, [args] {
-    RigConfig rig = RigConfig::load(args->rig);
+    RigConfig rig = load_rig(args->rig);
     // Block the signals in every thread the peers start; this thread waits for them.
     sigset_t set;
     sigemptyset(&set);

@@ -2,6 +2,8 @@
 
 #include <optional>
 
+#include "cli.h"
+
 #include "paintlab/fitting/binning.h"
 #include "paintlab/fitting/extraction.h"
 
@@ -10,7 +12,8 @@ namespace paintlab::app {
 void add_extract_options(CLI::App* sub, ExtractArgs& a) {
   sub->add_option("--calib", a.calib,
                   "Calibration folder (default: the calibration folder of the rig file the session names)");
-  sub->add_option("--margin-px", a.margin_px, "Sphere pixels used: at least this far inside the silhouette")
+  sets_fields(sub->add_option("--margin-px", a.margin_px, "Sphere pixels used: at least this far inside the silhouette"),
+              {"ExtractionOptions::margin_px"})
       ->capture_default_str();
   sub->add_option("--variance", a.variance,
                   "Sample variance: hdr (the HDR merge's var.* channels) or local (second differences with the "

@@ -20,8 +20,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "paintlab " + software_version());
   int verbose = 0;
   bool quiet = false;
-  app.add_flag("-v,--verbose", verbose, "More log output (repeat for trace)");
-  app.add_flag("-q,--quiet", quiet, "Only warnings, errors and results");
+  CLI::Option* verbose_flag = app.add_flag("-v,--verbose", verbose, "More log output (repeat for trace)");
+  app.add_flag("-q,--quiet", quiet, "Only warnings, errors and results")->excludes(verbose_flag);
   app.require_subcommand(1);
   app.fallthrough();
 
@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
   app::register_demo_commands(app);
 
   try {
+    app::check_command_words(app, argc, argv);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
@@ -52,6 +53,9 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     app.exit(e);
+    return kExitBadInput;
+  } catch (const OptionError& e) {
+    std::fprintf(stderr, "paintlab: error: %s\n", app::option_error_message(e).c_str());
     return kExitBadInput;
   } catch (const Error& e) {
     std::fprintf(stderr, "paintlab: error: %s\n", e.what());
@@ -67,6 +71,9 @@ int main(int argc, char** argv) {
   }
   try {
     return (*run)();
+  } catch (const OptionError& e) {
+    std::fprintf(stderr, "paintlab: error: %s\n", app::option_error_message(e).c_str());
+    return kExitBadInput;
   } catch (const Error& e) {
     std::fprintf(stderr, "paintlab: error: %s\n", e.what());
     return exit_code(e);

@@ -6,6 +6,7 @@
 #include "paintlab/devices/gpiod_light.h"
 #include "paintlab/devices/modbus_turntable.h"
 #include "paintlab/sim/peers/sim_light.h"
+#include "paintlab/sim/config.h"
 #include "paintlab/sim/peers/sim_rig.h"
 
 namespace paintlab::app {
@@ -20,6 +21,12 @@ RigDevices::~RigDevices() {
   sim.reset();
 }
 
+RigConfig load_rig(const std::filesystem::path& file) {
+  RigConfig rig = RigConfig::load(file);
+  dev::validate_device_sections(rig);
+  if (rig.sim) (void)sim::SimConfig::from_rig(rig);
+  return rig;
+}
 
 RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& options) {
   // Check every section before anything starts.

@@ -5,11 +5,12 @@
 // connects the REAL drivers to them: the turntable over Modbus TCP (or RTU on a pty) and
 // the camera over GigE Vision, both on 127.0.0.1; the LED is a SimLight.
 //
-//   RigConfig rig = RigConfig::load("rig.toml");
+//   RigConfig rig = load_rig("rig.toml");
 //   RigDevices d = open_rig_devices(rig);
 //   d.turntable->move_to(30); d.turntable->wait_settled(10);
 //   d.light->on(); d.camera->set_exposure(0.01); auto frame = d.camera->capture(5);
 //   d.clock->now_s();   // the clock the rig runs on (sim: the world's virtual clock)
+#include <filesystem>
 #include <memory>
 
 #include "paintlab/core/clock.h"
@@ -45,6 +46,12 @@ struct OpenDevicesOptions {
   bool light = true;
   bool camera = true;
 };
+
+// Reads a rig.toml and checks all of it, the same for every command: the keys RigConfig
+// owns, the kind-specific keys of [devices.*] and, when present, the simulator's [sim] table
+// (even if no device is simulated: a file that `rig validate` passes works with `sim render`).
+// Throws ConfigError naming file, line and key.
+RigConfig load_rig(const std::filesystem::path& file);
 
 // Opens the rig's devices. Throws ConfigError for bad device sections and DeviceError when a
 // device cannot be opened (the message names the device).

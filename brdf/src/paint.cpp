@@ -161,15 +161,22 @@ bool valid_name(const std::string& s) {
 }
 
 const Bounds kUnitOpen = Bounds::open(0.0, 1.0);
+// Physical ranges (docs/paint-files.md), with room for a measurement's uncertainty since
+// fitted paints are read through here too: a diffuse albedo above 1 reflects more light
+// than it receives (2 is refused); a lobe reflects about 4 weight F with F >= 0.025 for any
+// coating (IOR >= 1.37), so a weight of 10 already does (20 is refused). A finite but absurd
+// value (kd = 1e308) is an error naming file, line and key, not an image of inf.
+const Bounds kAlbedo = Bounds::closed(0.0, 2.0);
+const Bounds kLobeWeight = Bounds::closed(0.0, 20.0);
 const Bounds kIor = Bounds::closed(1.0, 3.0);
 
 template <class Table>
 CookTorranceParams parse_cook_torrance(const Table& t) {
   CookTorranceParams p;
-  p.kd = rgb_of(t.triple("kd", Bounds::non_negative()));
+  p.kd = rgb_of(t.triple("kd", kAlbedo));
   for (const Table& l : t.tables("lobes", 1, 3)) {
     CtLobe lobe;
-    lobe.ks = rgb_of(l.triple("ks", Bounds::non_negative()));
+    lobe.ks = rgb_of(l.triple("ks", kLobeWeight));
     lobe.m = l.number("m", kUnitOpen);
     lobe.r = l.number("r", kUnitOpen);
     l.finish();
@@ -182,10 +189,10 @@ template <class Table>
 AxfCarPaintParams parse_axf(const Table& t) {
   AxfCarPaintParams p;
   p.ior = t.number("ior", kIor);
-  p.diffuse = t.number("diffuse", Bounds::non_negative());
+  p.diffuse = t.number("diffuse", kAlbedo);
   for (const Table& l : t.tables("lobes", 1, 3)) {
     AxfLobe lobe;
-    lobe.coefficient = l.number("coefficient", Bounds::non_negative());
+    lobe.coefficient = l.number("coefficient", kLobeWeight);
     lobe.spread = l.number("spread", kUnitOpen);
     lobe.f0 = l.number("f0", kUnitOpen);
     l.finish();
@@ -195,9 +202,9 @@ AxfCarPaintParams parse_axf(const Table& t) {
     ColourTable& chi = p.chi;
     chi.theta_h_samples = static_cast<int>(c->integer("theta_h_samples", Bounds::closed(1, 1024)));
     chi.theta_i_samples = static_cast<int>(c->integer("theta_i_samples", Bounds::closed(1, 1024)));
-    chi.scale = c->number("scale", 1.0, Bounds::positive());
+    chi.scale = c->number("scale", 1.0, Bounds{0.0, 1000.0, true, false});
     const std::size_t n = static_cast<std::size_t>(chi.theta_h_samples) * static_cast<std::size_t>(chi.theta_i_samples);
-    const std::vector<double> v = c->numbers("rgb", 3 * n, 3 * n, Bounds::non_negative());
+    const std::vector<double> v = c->numbers("rgb", 3 * n, 3 * n, Bounds::closed(0.0, 100.0));
     chi.rgb.resize(n);
     for (std::size_t i = 0; i < n; ++i) chi.rgb[i] = Rgb(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
     c->finish();
@@ -211,7 +218,7 @@ PearlescentParams parse_pearl(const Table& t) {
   p.substrate = rgb_of(t.triple("substrate", Bounds::closed(0.0, 1.0)));
   p.ior = t.number("ior", kIor);
   p.gloss_roughness = t.number("gloss_roughness", kUnitOpen);
-  if (t.has("absorption")) p.absorption = rgb_of(t.triple("absorption", Bounds::non_negative()));
+  if (t.has("absorption")) p.absorption = rgb_of(t.triple("absorption", Bounds::closed(0.0, 1000.0)));
   const Table g = *t.maybe_table("pigment");  // required: checked by the caller
   p.coverage = g.number("coverage", Bounds::closed(0.0, 20.0));
   p.opacity = g.number("opacity", Bounds::closed(0.0, 1.0));
@@ -259,7 +266,7 @@ PaintSpec parse_generic(const Table& t, const fs::path& base_dir, bool name_requ
     if (model == kMerl) t.fail("flakes", "sparkle needs an analytic model; not allowed with model \"merl\"");
     const Table f = *t.maybe_table("flakes");
     FlakeSpec fl;
-    fl.density = f.number("density", Bounds::positive());
+    fl.density = f.number("density", Bounds{0.0, kMaxFlakeDensity, true, false});
     fl.roughness = f.number("roughness", kUnitOpen);
     fl.lifetime_deg = f.number("lifetime_deg", fl.lifetime_deg, Bounds{0.0, 45.0, true, false});
     if (model == kPearl) {

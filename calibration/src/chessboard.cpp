@@ -5,6 +5,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+
+#include <fmt/format.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -66,12 +68,14 @@ CornerMethod corner_method_from_string(const std::string& s) {
 
 void CornerOptions::check() const {
   if (subpix_half_window_px < 0 || subpix_half_window_px > 50)
-    throw UsageError("corner options: subpix_half_window_px must be in 0..50 (got " +
-                     std::to_string(subpix_half_window_px) + ")");
+    throw OptionError("CornerOptions::subpix_half_window_px", std::to_string(subpix_half_window_px), "0..50");
   if (!(window_frac > 0.1 && window_frac <= 0.7))
-    throw UsageError("corner options: window_frac must be in (0.1, 0.7] (got " + std::to_string(window_frac) + ")");
-  if (min_half_window_px < 2 || max_half_window_px < min_half_window_px || max_half_window_px > 60)
-    throw UsageError("corner options: need 2 <= min_half_window_px <= max_half_window_px <= 60");
+    throw OptionError("CornerOptions::window_frac", fmt::format("{}", window_frac), "(0.1, 0.7]");
+  if (min_half_window_px < 2 || min_half_window_px > max_half_window_px)
+    throw OptionError("CornerOptions::min_half_window_px", std::to_string(min_half_window_px),
+                      "2..max_half_window_px (" + std::to_string(max_half_window_px) + ")");
+  if (max_half_window_px > 60)
+    throw OptionError("CornerOptions::max_half_window_px", std::to_string(max_half_window_px), "min_half_window_px..60");
 }
 
 namespace {

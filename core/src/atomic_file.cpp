@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "paintlab/core/error.h"
+#include "paintlab/core/input_files.h"
 
 namespace fs = std::filesystem;
 
@@ -21,7 +22,7 @@ void write_all(int fd, const char* data, std::size_t n, const fs::path& path) {
     ssize_t w = ::write(fd, data, n);
     if (w < 0) {
       if (errno == EINTR) continue;
-      throw IoError(path.string(), "write failed", errno);
+      throw IoError(path.string(), "write failed", errno, IoOp::Write);
     }
     data += w;
     n -= static_cast<std::size_t>(w);
@@ -42,11 +43,11 @@ fs::path temp_path_for(const fs::path& path) {
 
 void fsync_path(const fs::path& path) {
   int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw IoError(path.string(), "cannot open for fsync", errno);
+  if (fd < 0) throw IoError(path.string(), "cannot open for fsync", errno, IoOp::Write);
   int rc = ::fsync(fd);
   int err = errno;
   ::close(fd);
-  if (rc != 0) throw IoError(path.string(), "fsync failed", err);
+  if (rc != 0) throw IoError(path.string(), "fsync failed", err, IoOp::Write);
 }
 
 void write_via_temp(const fs::path& path, const std::function<void(const fs::path& tmp)>& writer) {
@@ -54,7 +55,7 @@ void write_via_temp(const fs::path& path, const std::function<void(const fs::pat
   try {
     writer(tmp);
     fsync_path(tmp);
-    if (::rename(tmp.c_str(), path.c_str()) != 0) throw IoError(path.string(), "cannot rename temporary file into place", errno);
+    if (::rename(tmp.c_str(), path.c_str()) != 0) throw IoError(path.string(), "cannot rename temporary file into place", errno, IoOp::Write);
   } catch (...) {
     std::error_code ec;
     fs::remove(tmp, ec);
@@ -66,18 +67,19 @@ void write_via_temp(const fs::path& path, const std::function<void(const fs::pat
 void write_file_atomic(const fs::path& path, std::string_view bytes) {
   write_via_temp(path, [&](const fs::path& tmp) {
     int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-    if (fd < 0) throw IoError(path.string(), "cannot create file", errno);
+    if (fd < 0) throw IoError(path.string(), "cannot create file", errno, IoOp::Write);
     try {
       write_all(fd, bytes.data(), bytes.size(), path);
     } catch (...) {
       ::close(fd);
       throw;
     }
-    if (::close(fd) != 0) throw IoError(path.string(), "close failed", errno);
+    if (::close(fd) != 0) throw IoError(path.string(), "close failed", errno, IoOp::Write);
   });
 }
 
 std::string read_file(const fs::path& path) {
+  require_readable_file(path);  // a folder, a dangling link or a loop, said as such
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path.string(), "cannot open for reading", errno);
   std::ostringstream ss;

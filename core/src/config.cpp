@@ -6,6 +6,7 @@
 #include <toml++/toml.h>
 
 #include "paintlab/core/error.h"
+#include "paintlab/core/input_files.h"
 
 namespace paintlab {
 
@@ -59,8 +60,7 @@ ConfigTable::ConfigTable(std::shared_ptr<State> state, const toml::table* table,
 ConfigTable ConfigTable::parse_file(const std::filesystem::path& path) {
   auto state = std::make_shared<State>();
   state->file = path.string();
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw IoError(path.string(), "no such file");
+  require_readable_file(path);
   try {
     state->root = toml::parse_file(path.string());
   } catch (const toml::parse_error& e) {

@@ -1,5 +1,6 @@
 #include "paintlab/core/error.h"
 
+#include <cerrno>
 #include <cstring>
 
 namespace paintlab {
@@ -21,18 +22,28 @@ ConfigError::ConfigError(std::string file, int line, std::string key, std::strin
     : Error(ErrorKind::Config, config_message(file, line, key, message)),
       file_(std::move(file)), line_(line), key_(std::move(key)), detail_(std::move(message)) {}
 
-IoError::IoError(const std::string& path, const std::string& what, int errno_value)
-    : Error(ErrorKind::Io, io_message(path, what, errno_value)), path_(path) {}
+OptionError::OptionError(std::string field, std::string value, std::string rule)
+    : UsageError(field + " = " + value + ": allowed " + rule),
+      field_(std::move(field)), value_(std::move(value)), rule_(std::move(rule)) {}
+
+IoError::IoError(const std::string& path, const std::string& what, int errno_value, IoOp op)
+    : Error(ErrorKind::Io, io_message(path, what, errno_value)), path_(path), errno_(errno_value), op_(op) {}
 
 DeviceError::DeviceError(std::string device, const std::string& message, bool retryable)
     : Error(ErrorKind::Device, device + ": " + message), device_(std::move(device)), retryable_(retryable) {}
 
 int exit_code(const Error& e) noexcept {
   switch (e.kind()) {
+    case ErrorKind::Io: {
+      const auto* io = dynamic_cast<const IoError*>(&e);
+      if (!io) return kExitBadInput;
+      const int err = io->errno_value();
+      const bool environment = err == ENOSPC || err == EDQUOT || err == EFBIG || err == EROFS;
+      return io->op() == IoOp::Write || environment ? kExitFailed : kExitBadInput;
+    }
     case ErrorKind::Usage:
     case ErrorKind::Config:
     case ErrorKind::Data:
-    case ErrorKind::Io:
       return kExitBadInput;
     case ErrorKind::Device:
     case ErrorKind::Calibration:

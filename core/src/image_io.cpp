@@ -19,6 +19,7 @@
 
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/input_files.h"
 
 namespace fs = std::filesystem;
 
@@ -82,13 +83,13 @@ void write_exr(const fs::path& path, const ExrImage& image, bool half) {
     } catch (const Error&) {
       throw;
     } catch (const std::exception& e) {
-      throw IoError(path.string(), std::string("cannot write EXR: ") + e.what());
+      throw IoError(path.string(), std::string("cannot write EXR: ") + e.what(), 0, IoOp::Write);
     }
   });
 }
 
 ExrImage read_exr(const fs::path& path) {
-  if (!fs::exists(path)) throw IoError(path.string(), "no such file");
+  require_readable_file(path);
   try {
     // OpenEXR checks the header's window and tile sizes against these before it allocates the
     // line-offset table of a damaged file (process-wide; set once, before the first open).
@@ -136,7 +137,7 @@ ExrImage read_exr(const fs::path& path) {
 }
 
 RawImage read_raw_image(const fs::path& path) {
-  if (!fs::exists(path)) throw IoError(path.string(), "no such file");
+  require_readable_file(path);
   cv::Mat m = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   if (m.empty()) throw DataError(path.string() + ": not a readable image (PNG, TIFF, PGM, JPEG)");
   if (m.depth() != CV_8U && m.depth() != CV_16U)

@@ -1,13 +1,36 @@
 #include "paintlab/core/input_files.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 
 #include "paintlab/core/error.h"
 
 namespace fs = std::filesystem;
 
 namespace paintlab {
+
+void require_readable_file(const fs::path& path) {
+  const std::string shown = path.string();
+  std::error_code ec;
+  const fs::file_status link = fs::symlink_status(path, ec);
+  if (!fs::exists(link)) throw IoError(shown, "no such file");
+  const fs::file_status target = fs::status(path, ec);
+  if (fs::is_symlink(link) && !fs::exists(target)) {
+    if (ec && ec.value() != ENOENT) throw IoError(shown, "cannot be opened", ec.value());  // a loop: ELOOP
+    fs::path to = fs::read_symlink(path, ec);
+    throw IoError(shown, "is a symbolic link to " + (ec ? std::string("a missing file") : to.string()) +
+                             ", which does not exist");
+  }
+  if (fs::is_directory(target)) throw IoError(shown, "is a folder, not a file");
+  if (!fs::is_regular_file(target)) throw IoError(shown, "is not a regular file");
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw IoError(shown, "cannot be opened", errno);
+  ::close(fd);
+}
 
 std::vector<fs::path> expand_input_files(const std::vector<std::string>& args, const std::string& option,
                                          const std::vector<std::string_view>& extensions) {

@@ -55,7 +55,7 @@ std::vector<Json> read_jsonl_file(const fs::path& path, bool* torn_tail) {
 void append_jsonl_line(const fs::path& path, const Json& value) {
   std::string line = value.dump() + "\n";
   int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-  if (fd < 0) throw IoError(path.string(), "cannot open for appending", errno);
+  if (fd < 0) throw IoError(path.string(), "cannot open for appending", errno, IoOp::Write);
   const char* p = line.data();
   std::size_t n = line.size();
   while (n > 0) {
@@ -64,7 +64,7 @@ void append_jsonl_line(const fs::path& path, const Json& value) {
       if (errno == EINTR) continue;
       int err = errno;
       ::close(fd);
-      throw IoError(path.string(), "append failed", err);
+      throw IoError(path.string(), "append failed", err, IoOp::Write);
     }
     p += w;
     n -= static_cast<std::size_t>(w);
@@ -72,7 +72,7 @@ void append_jsonl_line(const fs::path& path, const Json& value) {
   if (::fsync(fd) != 0) {
     int err = errno;
     ::close(fd);
-    throw IoError(path.string(), "fsync failed", err);
+    throw IoError(path.string(), "fsync failed", err, IoOp::Write);
   }
   ::close(fd);
 }

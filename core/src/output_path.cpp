@@ -88,9 +88,11 @@ void check_output_folder(const OutputSpec& out) {
                     " cannot be created");
   }
   if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    // Not a wrong command line but a folder the job cannot write into (read-only, no
+    // permission): the job fails (exit 1), with the system's reason.
     const int err = errno;
-    output_refuse(output_folder_subject(out) + ": the folder " + dir.string() + about + " is not writable (" +
-                  std::strerror(err) + ")");
+    throw IoError(output_folder_subject(out), "the folder " + dir.string() + about + " is not writable", err,
+                  IoOp::Write);
   }
 }
 

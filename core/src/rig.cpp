@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "paintlab/core/error.h"
 
 namespace fs = std::filesystem;
@@ -98,6 +100,26 @@ MeasurementPlan parse_plan(const ConfigTable& t) {
   p.settle_s = t.number("settle_s", p.settle_s, Bounds::closed(0.0, 600.0));
   p.dark_frames = static_cast<int>(t.integer("dark_frames", p.dark_frames, Bounds::closed(0, 1000)));
   p.gain_db = t.number("gain_db", p.gain_db, Bounds::closed(0.0, 48.0));
+  // What a sweep may be: each position is a journal entry, an HDR map and a turntable move,
+  // so a step of 1e-7 deg (1.8 billion positions) is a typing error, not a plan.
+  const double span = p.angle_stop_deg - p.angle_start_deg;
+  const double positions = std::floor(span / p.angle_step_deg + 1e-9) + 1.0;
+  if (p.angle_step_deg < kMinAngleStepDeg)
+    t.fail("angle_step_deg", fmt::format("must be at least {:g} deg (a turntable's resolution; got {:g})",
+                                         kMinAngleStepDeg, p.angle_step_deg));
+  if (positions > kMaxPlanPositions)
+    t.fail("angle_step_deg", fmt::format("gives {:.0f} light positions from {:g} to {:g} deg; a plan holds at most {} "
+                                         "(a step of at least {:.3g} deg over this span)",
+                                         positions, p.angle_start_deg, p.angle_stop_deg, kMaxPlanPositions,
+                                         span / (kMaxPlanPositions - 1)));
+  double bracket_s = 0.0;
+  for (double e : p.exposures_s) bracket_s += e;
+  const double sweep_h = (positions * (p.settle_s + bracket_s) + p.dark_frames * bracket_s) / 3600.0;
+  if (sweep_h > kMaxPlanHours)
+    t.fail(has_list ? "exposures_ms" : "bracket",
+           fmt::format("the sweep would take at least {:.0f} h ({:.0f} positions x ({:g} s settle + {:g} s of "
+                       "exposures), plus {} dark frames per exposure); a plan may take at most {:g} h",
+                       sweep_h, positions, p.settle_s, bracket_s, p.dark_frames, kMaxPlanHours));
   t.finish();
   return p;
 }

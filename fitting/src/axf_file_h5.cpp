@@ -294,7 +294,9 @@ Handle open_image(const std::string& bytes, const std::string& what) {
 
 // ---- Writer ----
 
-void Writer::fail(const std::string& path) const { throw IoError(file_, "cannot write HDF5 object " + path); }
+void Writer::fail(const std::string& path) const {
+  throw IoError(file_, "cannot write HDF5 object " + path, 0, IoOp::Write);
+}
 
 Handle Writer::create_group(hid_t loc, const std::string& name, const std::string& path) const {
   Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);

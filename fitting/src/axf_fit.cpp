@@ -257,7 +257,7 @@ void convolve(const std::vector<std::array<double, 3>>& num, const std::vector<s
 
 void AxfFitOptions::check() const {
   auto fail = [](const std::string& key, const std::string& value, const char* rule) {
-    throw DataError(fmt::format("AxfFitOptions::{} = {}. Violated constraint: {}", key, value, rule));
+    throw OptionError("AxfFitOptions::" + key, value, rule);
   };
   if (lobes < 1 || lobes > kMaxAxfLobes) fail("lobes", std::to_string(lobes), "1..3");
   if (grid_starts < 1) fail("grid_starts", std::to_string(grid_starts), ">= 1");

@@ -141,9 +141,8 @@ BinEstimator bin_estimator_from_string(std::string_view s, std::string_view wher
 
 void BinningOptions::check() const {
   if (groups < 3 || groups > 9 || groups % 2 == 0)
-    throw DataError(fmt::format("BinningOptions::groups = {}. Violated constraint: odd, 3..9", groups));
-  if (threads < 0)
-    throw DataError(fmt::format("BinningOptions::threads = {}. Violated constraint: >= 0 (0 = all cores)", threads));
+    throw OptionError("BinningOptions::groups", std::to_string(groups), "odd, 3..9");
+  if (threads < 0) throw OptionError("BinningOptions::threads", std::to_string(threads), ">= 0 (0 = all cores)");
 }
 
 brdf::Rgb BinnedTable::noise(std::size_t bin) const {

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "paintlab/brdf/rusinkiewicz.h"
+#include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
 #include "paintlab/core/image_io.h"
 
@@ -103,6 +104,35 @@ void coverage_pixel(std::size_t bin, int& x, int& y) {
   const brdf::MerlBin b = brdf::merl_bin_of_flat(bin);
   x = (b.theta_d % kCoverageTilesPerRow) * kMerlPhiD + b.phi_d;
   y = (b.theta_d / kCoverageTilesPerRow) * kMerlThetaH + b.theta_h;
+}
+
+std::filesystem::path coverage_map_path_for(const std::filesystem::path& table_file) {
+  return table_file.parent_path() / (table_file.stem().string() + ".coverage.exr");
+}
+
+std::size_t mark_filled_bins(const std::filesystem::path& coverage_exr, brdf::MerlTable& table) {
+  constexpr int tile_rows = (kMerlThetaD + kCoverageTilesPerRow - 1) / kCoverageTilesPerRow;
+  const int w = kCoverageTilesPerRow * kMerlPhiD, h = tile_rows * kMerlThetaH;
+  const ExrImage img = read_exr(coverage_exr);
+  if (img.width != w || img.height != h)
+    throw DataError(fmt::format("{}: a coverage map is {} x {} pixels, this one {} x {} (not a coverage map)",
+                                coverage_exr.string(), w, h, img.width, img.height));
+  const ImageF& state = img.plane("state");
+  std::size_t filled = 0;
+  for (std::size_t b = 0; b < kMerlBins; ++b) {
+    int x, y;
+    coverage_pixel(b, x, y);
+    const float s = state.at(x, y);
+    if (s == 0.0f) continue;
+    if (table.state(b) == brdf::BinState::Empty)
+      throw DataError(fmt::format("{}: marks bin {} as {} but the table has it empty (the map of another table?)",
+                                  coverage_exr.string(), b, s == 2.0f ? "filled" : "measured"));
+    if (s == 2.0f) {
+      table.set_state(b, brdf::BinState::Filled);
+      ++filled;
+    }
+  }
+  return filled;
 }
 
 void write_coverage_exr(const std::filesystem::path& path, const brdf::MerlTable& table) {

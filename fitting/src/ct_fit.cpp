@@ -381,7 +381,7 @@ std::string termination_text(const ceres::Solver::Summary& s) {
 
 void CtFitOptions::check() const {
   auto fail = [](const std::string& key, const std::string& value, const char* rule) {
-    throw DataError(fmt::format("CtFitOptions::{} = {}. Violated constraint: {}", key, value, rule));
+    throw OptionError("CtFitOptions::" + key, value, rule);
   };
   if (lobes < 1 || lobes > kMaxLobes) fail("lobes", std::to_string(lobes), "1..3");
   if (grid_starts < 1) fail("grid_starts", std::to_string(grid_starts), ">= 1");

@@ -22,7 +22,7 @@ namespace paintlab::fit {
 
 void ExtractionOptions::check() const {
   auto fail = [](const char* key, double v, const char* rule) {
-    throw DataError(fmt::format("ExtractionOptions::{} = {}. Violated constraint: {}", key, v, rule));
+    throw OptionError(std::string("ExtractionOptions::") + key, fmt::format("{}", v), rule);
   };
   if (!(margin_px >= 0.0)) fail("margin_px", margin_px, ">= 0");
   if (!(min_cos >= 0.0 && min_cos < 1.0)) fail("min_cos", min_cos, "in [0, 1)");

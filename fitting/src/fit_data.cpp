@@ -112,11 +112,10 @@ void linear_weights(FitData& data, const brdf::MerlTable& table, const std::vect
 
 void FitDataOptions::check() const {
   if (!(relative_floor > 0.0 && relative_floor < 1.0))
-    throw DataError(fmt::format("FitDataOptions::relative_floor = {}. Violated constraint: in (0, 1)", relative_floor));
-  if (min_samples < 1)
-    throw DataError(fmt::format("FitDataOptions::min_samples = {}. Violated constraint: >= 1", min_samples));
+    throw OptionError("FitDataOptions::relative_floor", fmt::format("{}", relative_floor), "(0, 1)");
+  if (min_samples < 1) throw OptionError("FitDataOptions::min_samples", std::to_string(min_samples), ">= 1");
   if (window_phi_d < 1 || window_phi_d > kMerlPhiD / 2)
-    throw DataError(fmt::format("FitDataOptions::window_phi_d = {}. Violated constraint: 1..90", window_phi_d));
+    throw OptionError("FitDataOptions::window_phi_d", std::to_string(window_phi_d), "1..90");
 }
 
 const char* to_string(FitResiduals r) {

@@ -111,7 +111,6 @@ void pull(const Level& coarse, Level& fine) {
 }  // namespace
 
 HoleFillReport fill_holes(brdf::MerlTable& table, const HoleFillOptions& options) {
-  options.check();
   HoleFillReport rep;
   const auto& valid = valid_bin_mask();
 

@@ -25,6 +25,19 @@ namespace {
 constexpr const char* kLockFile = ".lock";
 constexpr const char* kPaintSuffix = ".axf.h5";
 
+// A name `add` gives a paint's file: NAME.ID.axf.h5 (a paint name, a number).
+bool is_library_file_name(const std::string& n) {
+  const std::string suffix = kPaintSuffix;
+  if (n.empty() || n.front() == '.' || n.size() <= suffix.size() ||
+      n.compare(n.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return false;
+  const std::string stem = n.substr(0, n.size() - suffix.size());
+  const auto dot = stem.rfind('.');
+  if (dot == std::string::npos || dot == 0 || dot + 1 == stem.size()) return false;
+  return std::all_of(stem.begin() + static_cast<std::ptrdiff_t>(dot) + 1, stem.end(),
+                     [](char c) { return c >= '0' && c <= '9'; });
+}
+
 // An exclusive flock on DIR/.lock for the lifetime of the object. The kernel releases it
 // when the process dies, so a crashed writer never leaves the library locked. A lock held
 // longer than `timeout_s` by another process (a hung command) is an IoError, never a hang.
@@ -131,7 +144,7 @@ PaintLibrary PaintLibrary::open(const fs::path& dir, bool create) {
     }
   } else {
     fs::create_directories(lib.dir_, ec);
-    if (ec) throw IoError(lib.dir_.string(), "cannot create the library folder: " + ec.message());
+    if (ec) throw IoError(lib.dir_.string(), "cannot create the library folder", ec.value(), IoOp::Write);
   }
   DirLock lock(lib.dir_, lib.lock_timeout_s_);
   if (!fs::exists(index, ec)) lib.write_index(Index{});
@@ -209,6 +222,7 @@ LibraryEntry PaintLibrary::add(const AxfPaint& paint, bool replace) {
   step("locked");
   remove_stale_temps(dir_);
   Index idx = read_index();
+  remove_leftovers(idx);
   auto old = std::find_if(idx.paints.begin(), idx.paints.end(),
                           [&](const LibraryEntry& e) { return e.name == paint.name; });
   if (old != idx.paints.end() && !replace)
@@ -225,9 +239,28 @@ LibraryEntry PaintLibrary::add(const AxfPaint& paint, bool replace) {
                                                  [&](const LibraryEntry& e) { return e.file == file; }))
       break;
   }
-  write_axf_file(dir_ / file, paint);
-  step("paint-written");
+  // All or nothing: until the new index is in place, a failure (a full disk while the
+  // index is written) removes the new file again, unless the index already names it.
+  try {
+    write_axf_file(dir_ / file, paint);
+    step("paint-written");
+    return commit_added(idx, old, file, id);
+  } catch (...) {
+    std::error_code ec;
+    bool named = false;
+    try {
+      const Index now = read_index();
+      named = std::any_of(now.paints.begin(), now.paints.end(), [&](const LibraryEntry& e) { return e.file == file; });
+    } catch (const Error&) {
+      named = true;  // the index cannot be read: keep what may be named by it
+    }
+    if (!named) fs::remove(dir_ / file, ec);
+    throw;
+  }
+}
 
+LibraryEntry PaintLibrary::commit_added(Index& idx, std::vector<LibraryEntry>::iterator old, const std::string& file,
+                                        std::int64_t id) {
   const AxfPaint written = read_axf_file(dir_ / file);
   LibraryEntry entry;
   entry.name = written.name;
@@ -257,16 +290,31 @@ LibraryEntry PaintLibrary::add(const AxfPaint& paint, bool replace) {
   step("index-written");
   if (old_file) {
     std::error_code ec;
-    fs::remove(dir_ / *old_file, ec);  // a leftover is reported by check(), never harmful
+    fs::remove(dir_ / *old_file, ec);  // a leftover is reported by check() and removed by the next change
     step("old-file-removed");
   }
   return entry;
 }
 
+int PaintLibrary::remove_leftovers(const Index& idx) const {
+  std::set<std::string> named;
+  for (const auto& e : idx.paints) named.insert(e.file);
+  int removed = 0;
+  std::error_code ec;
+  for (const auto& d : fs::directory_iterator(dir_, ec)) {
+    const std::string n = d.path().filename().string();
+    if (!is_library_file_name(n) || named.count(n)) continue;
+    if (fs::remove(d.path(), ec)) ++removed;
+  }
+  return removed;
+}
+
 void PaintLibrary::remove(const std::string& name) {
   DirLock lock(dir_, lock_timeout_s_);
   step("locked");
+  remove_stale_temps(dir_);
   Index idx = read_index();
+  remove_leftovers(idx);
   auto it = std::find_if(idx.paints.begin(), idx.paints.end(), [&](const LibraryEntry& e) { return e.name == name; });
   if (it == idx.paints.end())
     throw DataError("library " + dir_.string() + ": no paint '" + name + "' (paints: " + names_of(idx.paints) + ")");
@@ -299,7 +347,7 @@ std::vector<fs::path> PaintLibrary::export_folder(const fs::path& folder, bool o
     throw IoError(folder.string(), "would overwrite " + existing + " (use --overwrite to replace them)");
   std::error_code ec;
   fs::create_directories(folder, ec);
-  if (ec) throw IoError(folder.string(), "cannot create the folder: " + ec.message());
+  if (ec) throw IoError(folder.string(), "cannot create the folder", ec.value(), IoOp::Write);
   for (std::size_t i = 0; i < paints.size(); ++i) write_axf_file(out[i], paints[i]);
   return out;
 }

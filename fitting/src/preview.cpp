@@ -200,19 +200,17 @@ Vec3 EnvironmentMap::sample(double u1, double u2, double* pdf_out) const {
 // ---- preview ----
 
 void PreviewOptions::check() const {
-  auto fail = [](const std::string& rule) { throw DataError("PreviewOptions::" + rule); };
-  if (size_px < 16 || size_px > 8192) fail(fmt::format("size_px = {}. Violated constraint: 16..8192", size_px));
-  if (!(light_azimuth_deg > -180 && light_azimuth_deg <= 180))
-    fail(fmt::format("light_azimuth_deg = {}. Violated constraint: (-180, 180]", light_azimuth_deg));
+  auto fail = [](const char* field, double value, const char* rule) {
+    throw OptionError(std::string("PreviewOptions::") + field, fmt::format("{}", value), rule);
+  };
+  if (size_px < 16 || size_px > 8192) fail("size_px", size_px, "16..8192");
+  if (!(light_azimuth_deg > -180 && light_azimuth_deg <= 180)) fail("light_azimuth_deg", light_azimuth_deg, "(-180, 180]");
   if (!(light_elevation_deg >= -89 && light_elevation_deg <= 89))
-    fail(fmt::format("light_elevation_deg = {}. Violated constraint: [-89, 89]", light_elevation_deg));
-  if (!(light_distance > 1.5)) fail(fmt::format("light_distance = {}. Violated constraint: > 1.5", light_distance));
-  if (!(environment_intensity > 0))
-    fail(fmt::format("environment_intensity = {}. Violated constraint: > 0", environment_intensity));
-  if (environment_samples < 1 || environment_samples > 4096)
-    fail(fmt::format("environment_samples = {}. Violated constraint: 1..4096", environment_samples));
-  if (!(tone.percentile > 0 && tone.percentile <= 100))
-    fail(fmt::format("tone.percentile = {}. Violated constraint: (0, 100]", tone.percentile));
+    fail("light_elevation_deg", light_elevation_deg, "[-89, 89]");
+  if (!(light_distance > 1.5)) fail("light_distance", light_distance, "> 1.5");
+  if (!(environment_intensity > 0)) fail("environment_intensity", environment_intensity, "> 0");
+  if (environment_samples < 1 || environment_samples > 4096) fail("environment_samples", environment_samples, "1..4096");
+  if (!(tone.percentile > 0 && tone.percentile <= 100)) fail("tone.percentile", tone.percentile, "(0, 100]");
 }
 
 namespace {

@@ -16,13 +16,14 @@ using brdf::Rgb;
 using brdf::Vec3;
 
 void CompareOptions::check() const {
-  auto fail = [](const std::string& rule) { throw DataError("CompareOptions::" + rule); };
-  if (!(margin_px >= 0 && margin_px <= 1000)) fail(fmt::format("margin_px = {}. Violated constraint: [0, 1000]", margin_px));
-  if (!(min_cos >= 0 && min_cos < 1)) fail(fmt::format("min_cos = {}. Violated constraint: [0, 1)", min_cos));
-  if (!(signal_floor_rel >= 0 && signal_floor_rel < 1))
-    fail(fmt::format("signal_floor_rel = {}. Violated constraint: [0, 1)", signal_floor_rel));
-  if (!(diff_range_log2 > 0)) fail(fmt::format("diff_range_log2 = {}. Violated constraint: > 0", diff_range_log2));
-  if (!(window_px >= 0 && window_px <= 50)) fail(fmt::format("window_px = {}. Violated constraint: [0, 50]", window_px));
+  auto fail = [](const char* field, double value, const char* rule) {
+    throw OptionError(std::string("CompareOptions::") + field, fmt::format("{}", value), rule);
+  };
+  if (!(margin_px >= 0 && margin_px <= 1000)) fail("margin_px", margin_px, "[0, 1000]");
+  if (!(min_cos >= 0 && min_cos < 1)) fail("min_cos", min_cos, "[0, 1)");
+  if (!(signal_floor_rel >= 0 && signal_floor_rel < 1)) fail("signal_floor_rel", signal_floor_rel, "[0, 1)");
+  if (!(diff_range_log2 > 0)) fail("diff_range_log2", diff_range_log2, "> 0");
+  if (!(window_px >= 0 && window_px <= 50)) fail("window_px", window_px, "[0, 50]");
 }
 
 Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration& cal, const ExrImage& hdr,

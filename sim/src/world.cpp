@@ -6,6 +6,8 @@
 #include <limits>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "paintlab/core/error.h"
 #include "paintlab/sim/flakes.h"
 #include "parallel.h"
@@ -401,8 +403,9 @@ std::shared_ptr<const SimWorld::PaintState> SimWorld::make_paint_state(SimPaint 
     st->flakes_per_m2 = sp.density / reference_footprint_m2();
     double expected_total = st->flakes_per_m2 * 2.0 * kPi * s.r * s.r;
     if (expected_total > 1.5e8)
-      throw DataError("simulator: flake density " + std::to_string(sp.density) + " per pixel footprint means about " +
-                      std::to_string(expected_total) + " visible flakes, more than the renderer keeps (1.5e8)");
+      throw DataError(fmt::format("simulator: a flake density of {:.3g} per pixel footprint means about {:.3g} "
+                                  "visible flakes, more than the renderer keeps (1.5e8)",
+                                  sp.density, expected_total));
     FlakeField field(s.r, st->flakes_per_m2, sp.roughness, config_.seed);
     std::vector<std::pair<std::uint32_t, std::array<std::int16_t, 3>>> assigned;
     const CameraModel& cam = *camera_;

@@ -320,9 +320,9 @@ TEST(Runner, BadOptionsAreRefusedBeforeAnythingMoves) {
     }
     return std::string("accepted");
   };
-  EXPECT_THAT(refused([](RunnerOptions& o) { o.max_retries = -1; }), HasSubstr("RunnerOptions::max_retries = -1: 0..100"));
+  EXPECT_THAT(refused([](RunnerOptions& o) { o.max_retries = -1; }), HasSubstr("RunnerOptions::max_retries = -1: allowed 0..100"));
   EXPECT_THAT(refused([](RunnerOptions& o) { o.capture_timeout_s = 0; }), HasSubstr("capture_timeout_s = 0"));
-  EXPECT_THAT(refused([](RunnerOptions& o) { o.queue_depth = 0; }), HasSubstr("queue_depth = 0: 1..64"));
+  EXPECT_THAT(refused([](RunnerOptions& o) { o.queue_depth = 0; }), HasSubstr("queue_depth = 0: allowed 1..64"));
   EXPECT_THAT(refused([](RunnerOptions& o) { o.poll_s = std::nan(""); }), HasSubstr("poll_s"));
   EXPECT_EQ(refused([](RunnerOptions&) {}), "accepted");
   EXPECT_EQ(rig.table.moves, 0);

@@ -187,11 +187,24 @@ TEST(PaintFile, EveryKindOfBadFileNamesFileLineAndKey) {
   EXPECT_THAT(config_error(replace(good, "r = 0.04", "r = -0.1")),
               HasSubstr("p.toml:11: key 'lobes[1].r': must be in (0, 1) (got -0.1)"));
   EXPECT_THAT(config_error(replace(good, "kd = [0.05, 0.06, 0.07]", "kd = [0.05, -0.06, 0.07]")),
-              HasSubstr("p.toml:3: key 'kd': element 1 must be >= 0 (got -0.06)"));
+              HasSubstr("p.toml:3: key 'kd': element 1 must be in [0, 2] (got -0.06)"));
   EXPECT_THAT(config_error(replace(good, "ks = [0.2, 0.2, 0.2]", "ks = [0.2, 0.2, -1]")),
-              HasSubstr("p.toml:9: key 'lobes[1].ks': element 2 must be >= 0 (got -1)"));
+              HasSubstr("p.toml:9: key 'lobes[1].ks': element 2 must be in [0, 20] (got -1)"));
   EXPECT_THAT(config_error(replace(good, "density = 0.5", "density = 0")),
-              HasSubstr("p.toml:13: key 'flakes.density': must be > 0 (got 0)"));
+              HasSubstr("p.toml:13: key 'flakes.density': must be in (0, 100] (got 0)"));
+  // Physical ranges (issue 13: kd = 1e308 rendered an image of inf, a flake density of
+  // 1e300 failed later with a 600-digit number and no file or line).
+  EXPECT_THAT(config_error(replace(good, "kd = [0.05, 0.06, 0.07]", "kd = [1e308, 0.06, 0.07]")),
+              HasSubstr("p.toml:3: key 'kd': element 0 must be in [0, 2] (got 1e+308)"));
+  EXPECT_THAT(config_error(replace(good, "kd = [0.05, 0.06, 0.07]", "kd = [0.05, 2.2, 0.07]")),
+              HasSubstr("p.toml:3: key 'kd': element 1 must be in [0, 2] (got 2.2)"));
+  EXPECT_THAT(config_error(replace(good, "ks = [0.2, 0.2, 0.2]", "ks = [0.2, 21, 0.2]")),
+              HasSubstr("p.toml:9: key 'lobes[1].ks': element 1 must be in [0, 20] (got 21)"));
+  EXPECT_THAT(config_error(replace(good, "density = 0.5", "density = 1e300")),
+              HasSubstr("p.toml:13: key 'flakes.density': must be in (0, 100] (got 1e+300)"));
+  EXPECT_EQ(config_error(replace(replace(good, "density = 0.5", "density = 100"), "kd = [0.05, 0.06, 0.07]",
+                                 "kd = [2, 0, 1]")),
+            "no error");
   // Names.
   EXPECT_THAT(config_error(replace(good, "example-silver", "Example Silver")),
               HasSubstr("p.toml:1: key 'name': \"Example Silver\" is not a valid paint name"));

@@ -5,7 +5,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include "paintlab/core/config.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/json.h"
 #include "test_util.h"
 
 using namespace paintlab;
@@ -46,4 +50,59 @@ TEST(InputFiles, RefusalsNameTheOptionAndTheArgument) {
   EXPECT_THAT(message({(tmp / "txt").string()}), HasSubstr("the folder holds no images (.png .tif .tiff .pgm)"));
   EXPECT_THAT(message({(tmp / "empty").string()}), HasSubstr("--images " + (tmp / "empty").string()));
   EXPECT_THAT(message({}), HasSubstr("--images: no images given"));
+}
+
+// Issue 13: a folder given as a rig or paint file said "key 'name': required key is
+// missing", a symlink loop said "no such file", an unreadable file had no errno. Each now
+// says what the path is, in the message every reader (TOML, JSON, EXR, images) gives.
+TEST(InputFiles, ARequiredFileSaysWhatThePathIs) {
+  test::TempDir d;
+  const auto message = [](const std::filesystem::path& p) {
+    try {
+      require_readable_file(p);
+    } catch (const IoError& e) {
+      EXPECT_EQ(exit_code(e), kExitBadInput) << e.what();
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  std::filesystem::create_directory(d / "rig.toml");
+  EXPECT_EQ(message(d / "rig.toml"), (d / "rig.toml").string() + ": is a folder, not a file");
+  EXPECT_EQ(message(d / "absent.toml"), (d / "absent.toml").string() + ": no such file");
+  std::filesystem::create_symlink(d / "loop-b", d / "loop-a");
+  std::filesystem::create_symlink(d / "loop-a", d / "loop-b");
+  EXPECT_EQ(message(d / "loop-a"), (d / "loop-a").string() + ": cannot be opened (Too many levels of symbolic links)");
+  std::filesystem::create_symlink(d / "gone.toml", d / "dangling.toml");
+  EXPECT_EQ(message(d / "dangling.toml"),
+            (d / "dangling.toml").string() + ": is a symbolic link to " + (d / "gone.toml").string() +
+                ", which does not exist");
+  test::write_text(d / "ok.toml", "name = \"x\"\n");
+  EXPECT_EQ(message(d / "ok.toml"), "no error");
+  // Every reader says the same (a folder as a rig file is no longer a missing key).
+  try {
+    (void)ConfigTable::parse_file(d / "rig.toml");
+    ADD_FAILURE() << "a folder parsed as TOML";
+  } catch (const IoError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("rig.toml: is a folder, not a file"));
+  }
+  try {
+    (void)read_json_file(d / "loop-a");
+    ADD_FAILURE() << "a symlink loop parsed as JSON";
+  } catch (const IoError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("Too many levels of symbolic links"));
+  }
+}
+
+TEST(InputFiles, AnUnreadableFileGivesTheSystemsReason) {
+  if (::geteuid() == 0)
+    GTEST_SKIP() << "running as root: root reads a file without read permission, so none can be made here";
+  test::TempDir d;
+  test::write_text(d / "rig.toml", "name = \"x\"\n");
+  std::filesystem::permissions(d / "rig.toml", std::filesystem::perms::none);
+  try {
+    require_readable_file(d / "rig.toml");
+    ADD_FAILURE();
+  } catch (const IoError& e) {
+    EXPECT_EQ(std::string(e.what()), (d / "rig.toml").string() + ": cannot be opened (Permission denied)");
+  }
 }

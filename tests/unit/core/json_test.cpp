@@ -89,3 +89,36 @@ TEST(Json, NumberOutOfRangeIsADataErrorNamingTheFile) {
     EXPECT_THAT(std::string(e.what()), HasSubstr("j.jsonl:2: not valid JSON"));
   }
 }
+
+// Found fuzzing the journal: a frame id of 1e300 went through nlohmann's static_cast
+// (undefined behaviour, UBSan stopped the reader). Every number a typed read cannot hold
+// is a DataError naming the file and the key; a number it can hold is read as before.
+TEST(Json, TypedReadRefusesANumberItsTypeCannotHold) {
+  const auto refused = [](const char* text, auto tag, const char* key) {
+    using T = decltype(tag);
+    try {
+      (void)json_get<T>(Json::parse(text), key, "journal.jsonl:3");
+      ADD_FAILURE() << text << " was accepted";
+    } catch (const DataError& e) {
+      EXPECT_THAT(std::string(e.what()), HasSubstr("journal.jsonl:3: key '" + std::string(key) + "'")) << text;
+    }
+  };
+  refused(R"({"frame_ids": [1, 1e300]})", std::vector<std::uint64_t>{}, "frame_ids");
+  refused(R"({"frame_ids": [-1]})", std::vector<std::uint64_t>{}, "frame_ids");
+  refused(R"({"frame_ids": [2.5]})", std::vector<std::uint64_t>{}, "frame_ids");
+  refused(R"({"frame_ids": [18446744073709551616.0]})", std::vector<std::uint64_t>{}, "frame_ids");
+  refused(R"({"index": 2147483648})", int{}, "index");
+  refused(R"({"index": -1e19})", int{}, "index");
+  refused(R"({"index": 1e300})", int{}, "index");
+  refused(R"({"index": 18446744073709551615})", std::int64_t{}, "index");
+  refused(R"({"gain": 1e40})", float{}, "gain");
+  refused(R"({"index": "3"})", int{}, "index");  // the wrong kind: nlohmann's own type error
+
+  const Json ok = Json::parse(
+      R"({"frame_ids": [0, 18446744073709551615, 3.0], "index": -2147483648, "big": 9007199254740992.0, "x": 1e300})");
+  EXPECT_EQ(json_get<std::vector<std::uint64_t>>(ok, "frame_ids", "f"),
+            (std::vector<std::uint64_t>{0, 18446744073709551615ull, 3}));
+  EXPECT_EQ(json_get<int>(ok, "index", "f"), -2147483648);
+  EXPECT_EQ(json_get<std::int64_t>(ok, "big", "f"), 9007199254740992);
+  EXPECT_EQ(json_get<double>(ok, "x", "f"), 1e300);
+}

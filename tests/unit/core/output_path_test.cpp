@@ -24,6 +24,9 @@ std::string output_refusal(const OutputSpec& out, const std::vector<InputSpec>& 
     check_output(out, inputs, dirs);
   } catch (const UsageError& e) {
     return e.what();
+  } catch (const IoError& e) {  // a folder that cannot be written (exit 1, not 2)
+    EXPECT_EQ(exit_code(e), kExitFailed) << e.what();
+    return e.what();
   }
   return "";
 }

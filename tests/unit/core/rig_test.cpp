@@ -97,3 +97,29 @@ TEST(Rig, GeometricBracket) {
   for (size_t i = 1; i < b.size(); ++i) EXPECT_NEAR(b[i] / b[i - 1], b[1] / b[0], 1e-9);
   EXPECT_DOUBLE_EQ(b.back(), 328);
 }
+
+// Issue 13: a step of 1e-7 deg passed as 1.8 billion positions (43 s, 16.8 GB), 1e-9 ran
+// out of memory, 1e-300 gave "0 positions". Each is refused with the reason and the key.
+TEST(Rig, PlanBoundsTheStepThePositionsAndTheSweepTime) {
+  auto with = [](const std::string& from, const std::string& to) {
+    std::string t = kMinimal;
+    t.replace(t.find(from), from.size(), to);
+    return t;
+  };
+  for (const char* step : {"1e-7", "1e-9", "1e-300", "0.0005"})
+    EXPECT_THAT(error_of(with("angle_step_deg = 1", std::string("angle_step_deg = ") + step)),
+                HasSubstr("key 'plan.angle_step_deg': must be at least 0.001 deg"))
+        << step;
+  const std::string many = error_of(with("angle_step_deg = 1", "angle_step_deg = 0.002"));
+  EXPECT_THAT(many, HasSubstr("key 'plan.angle_step_deg': gives 90001 light positions from 0 to 180 deg"));
+  EXPECT_THAT(many, HasSubstr("a plan holds at most 36001 (a step of at least 0.005 deg over this span)"));
+  // 181 positions x (0.5 s + exposures of 900, 910 and 920 s), plus 4 dark frames of each: 140 h.
+  EXPECT_THAT(error_of(with("exposures_ms = [0.25, 1, 4]", "exposures_ms = [9e5, 9.1e5, 9.2e5]")),
+              HasSubstr("key 'plan.exposures_ms': the sweep would take at least 140 h"));
+  // The largest plans allowed still parse: 36001 positions, and 0.001 deg steps over 36 deg.
+  for (const auto& ok : {with("angle_stop_deg = 180\nangle_step_deg = 1", "angle_stop_deg = 360\nangle_step_deg = 0.01"),
+                         with("angle_stop_deg = 180\nangle_step_deg = 1", "angle_stop_deg = 36\nangle_step_deg = 0.001")}) {
+    const RigConfig r = RigConfig::parse(ConfigTable::parse_string(ok, "rig.toml"), "/lab/rig.toml");
+    EXPECT_EQ(r.plan.angles_deg().size(), 36001u);
+  }
+}

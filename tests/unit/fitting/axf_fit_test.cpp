@@ -111,10 +111,10 @@ TEST(AxfFit, FitsNoisyBinnedSamplesWithinTheNoise) {
 TEST(AxfFit, OptionsAndBadInput) {
   AxfFitOptions opt;
   opt.chi_theta_h = 1;
-  EXPECT_THROW(opt.check(), DataError);
+  EXPECT_THROW(opt.check(), OptionError);
   opt = {};
   opt.ior_start = 3.5;
-  EXPECT_THROW(opt.check(), DataError);
+  EXPECT_THROW(opt.check(), OptionError);
   brdf::MerlTable few;
   for (std::size_t b = 0; b < 5; ++b) few.set_value(200000 + b, brdf::Rgb(0.1, 0.1, 0.1), brdf::BinState::Measured);
   EXPECT_THROW(fit_axf_carpaint(prepare_fit_data(few)), DataError);

@@ -251,10 +251,10 @@ TEST(Binning, MedianOfMeansBoundsTheInfluenceOfASingleOutlier) {
 TEST(Binning, OptionsAreChecked) {
   BinningOptions opt;
   opt.groups = 4;
-  EXPECT_THROW(opt.check(), DataError);
+  EXPECT_THROW(opt.check(), OptionError);
   opt.groups = 3;
   opt.threads = -1;
-  EXPECT_THROW(BinAccumulator{opt}, DataError);
+  EXPECT_THROW(BinAccumulator{opt}, OptionError);
   EXPECT_EQ(bin_estimator_from_string("median-of-means", "test"), BinEstimator::MedianOfMeans);
   EXPECT_THROW(bin_estimator_from_string("median", "test"), DataError);
 }

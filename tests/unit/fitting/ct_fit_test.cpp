@@ -171,7 +171,7 @@ TEST(FitData, LinearWeightsDoNotDependOnTheBinsOwnValue) {
   EXPECT_EQ(fit_residuals_from_string("linear", "test"), FitResiduals::Linear);
   EXPECT_THROW(fit_residuals_from_string("auto", "test"), DataError);
   o.window_phi_d = 0;
-  EXPECT_THROW(o.check(), DataError);
+  EXPECT_THROW(o.check(), OptionError);
 }
 
 TEST(CookTorranceFit, RecoversTwoLobesWithLinearResiduals) {
@@ -196,7 +196,7 @@ TEST(CookTorranceFit, BadInputIsRejected) {
   EXPECT_THROW(fit_cook_torrance(data), DataError);  // 12 values, 18 parameters
   CtFitOptions opt;
   opt.lobes = 4;
-  EXPECT_THROW(opt.check(), DataError);
+  EXPECT_THROW(opt.check(), OptionError);
 }
 
 }  // namespace

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <random>
 
+#include <fmt/format.h>
+
 #include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/cook_torrance.h"
 #include "paintlab/brdf/merl.h"
@@ -15,6 +17,8 @@
 #include "paintlab/core/hash.h"
 #include "paintlab/core/image_io.h"
 #include "paintlab/core/json.h"
+#include "paintlab/fitting/coverage.h"
+#include "paintlab/fitting/hole_fill.h"
 #include "paintlab/sim/paint.h"
 #include "sim_session.h"
 #include "synthetic.h"
@@ -66,6 +70,40 @@ TEST(FitCli, FitsAMerlFileAndWritesFitJson) {
   ASSERT_NE(ct, nullptr);
   for (int c = 0; c < 3; ++c) EXPECT_THAT(ct->kd[c], test::NearRel(truth.kd[c], 0.01));
   EXPECT_THAT(ct->lobes[1].m, test::NearRel(0.02, 0.01));
+}
+
+// Issue 13: a hole-filled table (bin --fill) was fitted as if every bin were measured: over
+// 120 s and 990 MB with no word. The coverage map beside it says which bins were filled;
+// fit says so at once and fits the measured ones only (the same result as the unfilled table).
+TEST(FitCli, AFilledTableIsFittedOnItsMeasuredBinsAndSaysSo) {
+  test::TempDir dir;
+  const brdf::CookTorranceParams truth = blue();
+  brdf::MerlTable t = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 8);
+  const std::size_t measured = t.count_in_state(brdf::BinState::Measured);
+  const HoleFillReport filled = fill_holes(t);
+  ASSERT_GT(filled.filled_mirror + filled.filled_pyramid, measured);  // most of the table is filled
+  brdf::write_merl(dir / "blue.binary", t);
+  write_coverage_exr(coverage_map_path_for(dir / "blue.binary"), t);
+  ASSERT_TRUE(fs::exists(dir / "blue.coverage.exr"));
+  const auto r = test::run_paintlab("fit " + (dir / "blue.binary").string() + " --lobes 2 --out " +
+                                    (dir / "fit.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr(fmt::format("{} of its", filled.filled_mirror + filled.filled_pyramid)));
+  EXPECT_THAT(r.err, HasSubstr("filled bins are not measurements, so the fit uses the " + std::to_string(measured) +
+                               " measured ones"));
+  const Json j = read_json_file(dir / "fit.json");
+  EXPECT_EQ(j["input"]["filled_bins_left_out"].get<std::size_t>(), filled.filled_mirror + filled.filled_pyramid);
+  EXPECT_LE(j["residual"]["bins_used"].get<std::size_t>(), measured);  // no filled bin among them
+  EXPECT_THAT(j["lobes"][1]["m"].get<double>(), test::NearRel(0.02, 0.01));
+
+  // A coverage map of another table is refused, not trusted.
+  brdf::MerlTable other = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 64);
+  brdf::write_merl(dir / "other.binary", other);
+  fs::copy_file(dir / "blue.coverage.exr", dir / "other.coverage.exr");
+  const auto o = test::run_paintlab("fit " + (dir / "other.binary").string() + " --out " + (dir / "o.json").string());
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_THAT(o.err, HasSubstr("other.coverage.exr: marks bin"));
+  EXPECT_FALSE(fs::exists(dir / "o.json"));
 }
 
 TEST(FitCli, BadInputFailsWithoutWritingAnything) {

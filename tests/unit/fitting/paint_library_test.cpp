@@ -11,6 +11,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <random>
 #include <set>
@@ -402,4 +404,48 @@ TEST(PaintLibraryCli, AddListShowRemoveExport) {
   r = test::run_paintlab("library list --dir " + (tmp / "nolib").string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("not a paint library"));
+}
+
+// Issue 13: a library add that failed while writing the index (a full disk) left its
+// NAME.N.axf.h5 behind, one more with each retry. An add is all or nothing, and what a
+// killed add leaves (kill -9 cannot clean up) is removed by the next change.
+TEST(PaintLibrary, AFailedAddLeavesNothingAndLeftoversGoWithTheNextChange) {
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp.path(), true);
+  const LibraryEntry blue = lib.add(make_paint("blue", 0.2, false), false);
+  const auto files = [&] {
+    std::vector<std::string> out;
+    for (const auto& e : fs::directory_iterator(tmp.path()))
+      if (e.path().filename().string().front() != '.') out.push_back(e.path().filename().string());
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  const auto files_before = files();
+  const std::string index_before = read_file(tmp / "index.json");
+  lib.set_step_hook([&](const std::string& step) {
+    if (step == "paint-written") throw IoError((tmp / "index.json").string(), "write failed", ENOSPC, IoOp::Write);
+  });
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    try {
+      lib.add(make_paint("silver", 0.3), false);
+      ADD_FAILURE() << "the add went through";
+    } catch (const IoError& e) {
+      EXPECT_EQ(exit_code(e), kExitFailed);
+      EXPECT_THAT(e.what(), HasSubstr("No space left on device"));
+    }
+  }
+  EXPECT_EQ(files(), files_before);
+  EXPECT_EQ(read_file(tmp / "index.json"), index_before);
+  EXPECT_TRUE(lib.check().empty());
+
+  lib.set_step_hook({});
+  write_file_atomic(tmp / "silver.7.axf.h5", read_file(tmp / blue.file));  // as a killed add leaves it
+  test::write_text(tmp / "notes.txt", "the technician's notes\n");         // not a paint file name: kept
+  ASSERT_EQ(lib.check().size(), 1u);
+  EXPECT_THAT(lib.check()[0], HasSubstr("silver.7.axf.h5 is not in the index"));
+  lib.add(make_paint("silver", 0.3), false);
+  EXPECT_FALSE(fs::exists(tmp / "silver.7.axf.h5"));
+  EXPECT_TRUE(fs::exists(tmp / "notes.txt"));
+  EXPECT_TRUE(lib.check().empty());
+  EXPECT_EQ(names(lib.list()), (std::vector<std::string>{"blue", "silver"}));
 }

@@ -196,10 +196,10 @@ TEST(Preview, OptionsAreChecked) {
   const brdf::Lambertian lambert(Rgb::Constant(0.5));
   PreviewOptions o;
   o.size_px = 4;
-  EXPECT_THROW(render_preview(lambert, o), DataError);
+  EXPECT_THROW(render_preview(lambert, o), OptionError);
   o = {};
   o.light_distance = 1.0;
-  EXPECT_THROW(render_preview(lambert, o), DataError);
+  EXPECT_THROW(render_preview(lambert, o), OptionError);
 }
 
 // ---- the comparison with a measurement (simulated rig, truth calibration) ----
@@ -308,7 +308,7 @@ TEST(Preview, ComparisonWindowAveragesFlakeSparkle) {
   EXPECT_NEAR(bright.median_ratio, 1.5, 0.08);
   CompareOptions bad;
   bad.window_px = 51;
-  EXPECT_THROW(render_comparison(*truth, cal, measured, 60.0, bad), DataError);
+  EXPECT_THROW(render_comparison(*truth, cal, measured, 60.0, bad), OptionError);
 }
 
 TEST(PreviewCli, RenderWritesPngAndHdrAndUsesAnEnvironment) {

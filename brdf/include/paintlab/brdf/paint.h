@@ -20,8 +20,12 @@ namespace paintlab::brdf {
 
 // Sparkle of the simulated flakes (models.md "Sparkle"). Only the simulator uses it; the
 // BRDF of the paint is its average.
+// Above this many flakes per pixel footprint the glints average into the BRDF (and the
+// simulator would keep more flakes than it can): the paint validator's bound.
+inline constexpr double kMaxFlakeDensity = 100.0;
+
 struct FlakeSpec {
-  double density = 0.5;       // flakes per pixel footprint at the reference distance, > 0
+  double density = 0.5;       // flakes per pixel footprint at the reference distance, (0, 100]
   double roughness = 0.15;    // Beckmann m of the flake normals, (0, 1)
   double lifetime_deg = 6.5;  // a flake lights up while angle(flake normal, h) < lifetime, (0, 45]
   // Which lobes the flakes carry (their energy becomes sparkle), as 0-based indices into

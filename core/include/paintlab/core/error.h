@@ -31,6 +31,23 @@ class UsageError : public Error {
   explicit UsageError(const std::string& message) : Error(ErrorKind::Usage, message) {}
 };
 
+// A field of a library's options struct outside what it may be: what() reads
+// "CtFitOptions::lobes = 9: allowed 1..3". The command line names the flag the user typed
+// instead ("--lobes 9: allowed 1..3", app/cli.h name_flag); a field no flag sets keeps its
+// struct name (a bug of the caller, not of the user). Exit 2 like every usage error.
+class OptionError : public UsageError {
+ public:
+  OptionError(std::string field, std::string value, std::string rule);
+  const std::string& field() const noexcept { return field_; }
+  const std::string& value() const noexcept { return value_; }
+  const std::string& rule() const noexcept { return rule_; }
+
+ private:
+  std::string field_;
+  std::string value_;
+  std::string rule_;
+};
+
 // A configuration error. what() reads "FILE:LINE: key 'KEY': MESSAGE".
 class ConfigError : public Error {
  public:
@@ -52,14 +69,25 @@ class DataError : public Error {
   explicit DataError(const std::string& message) : Error(ErrorKind::Data, message) {}
 };
 
+// What a file operation was for: reading an input or writing an output.
+enum class IoOp { Read, Write };
+
 class IoError : public Error {
  public:
-  // errno_value 0 when not from a system call; the message then includes strerror.
-  IoError(const std::string& path, const std::string& what, int errno_value = 0);
+  // errno_value 0 when not from a system call; else the message includes strerror.
+  // IoOp::Write: the file system failed an output (a full disk, a read-only folder, a file
+  // size limit), so the job failed though its input was fine (exit 1); IoOp::Read: an
+  // input is missing or unreadable (exit 2). A full disk or a read-only file system (ENOSPC,
+  // EDQUOT, EFBIG, EROFS) counts as a failed job whichever way it was met.
+  IoError(const std::string& path, const std::string& what, int errno_value = 0, IoOp op = IoOp::Read);
   const std::string& path() const noexcept { return path_; }
+  int errno_value() const noexcept { return errno_; }
+  IoOp op() const noexcept { return op_; }
 
  private:
   std::string path_;
+  int errno_;
+  IoOp op_;
 };
 
 // A device failure. retryable() says whether trying the same operation again may help

@@ -15,6 +15,13 @@ inline const std::vector<std::string_view> kRawImageExtensions = {".png", ".tif"
 inline const std::vector<std::string_view> kCalibrationImageExtensions = {".png", ".tif",  ".tiff", ".pgm",
                                                                           ".jpg", ".jpeg", ".exr"};
 
+// Checks that `path` names a regular file this process can read, before a parser opens it,
+// so the message says what is wrong in the user's words: "no such file", "is a folder, not
+// a file", "is a symbolic link to X, which does not exist", "cannot be opened (Too many
+// levels of symbolic links)", "cannot be opened (Permission denied)". Throws IoError
+// (IoOp::Read: exit 2) whose message starts with the path.
+void require_readable_file(const std::filesystem::path& path);
+
 // UsageError naming `option` and the argument for a path that does not exist, a folder
 // without such files, and no files at all.
 std::vector<std::filesystem::path> expand_input_files(const std::vector<std::string>& args, const std::string& option,

@@ -37,6 +37,13 @@ struct RigGeometry {
   int image_height_px = 1024;
 };
 
+// What rig.toml's [plan] may ask for (RigConfig::load refuses more, saying why): the
+// turntable's resolution, the positions a session holds (36,001 is a 0.01 deg step over a
+// full turn) and the capture time of one sweep.
+inline constexpr double kMinAngleStepDeg = 0.001;
+inline constexpr int kMaxPlanPositions = 36001;
+inline constexpr double kMaxPlanHours = 72.0;
+
 // The light sweep and the exposure bracket.
 struct MeasurementPlan {
   double angle_start_deg = 0.0;

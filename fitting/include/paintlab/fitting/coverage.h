@@ -56,5 +56,13 @@ inline constexpr int kCoverageTilesPerRow = 10;
 void write_coverage_exr(const std::filesystem::path& path, const brdf::MerlTable& table);
 // The pixel of bin `bin` in that mosaic.
 void coverage_pixel(std::size_t bin, int& x, int& y);
+// Where `paintlab bin` writes the coverage map of a table by default: beside it, the
+// table's stem + ".coverage.exr" (t.binary -> t.coverage.exr).
+std::filesystem::path coverage_map_path_for(const std::filesystem::path& table_file);
+// A MERL file cannot mark filled bins; its coverage map can. Marks the bins whose state in
+// the map is "filled" as BinState::Filled in `table` (fits use measured bins only) and
+// returns how many. DataError naming the map when it is not a coverage mosaic, or when it
+// says a bin holds a value that the table has empty (the map belongs to another table).
+std::size_t mark_filled_bins(const std::filesystem::path& coverage_exr, brdf::MerlTable& table);
 
 }  // namespace paintlab::fit

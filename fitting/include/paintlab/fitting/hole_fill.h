@@ -19,9 +19,9 @@
 
 namespace paintlab::fit {
 
+// Nothing to check: a flag has no invalid value.
 struct HoleFillOptions {
   bool use_reciprocity = true;  // step 1
-  void check() const {}
 };
 
 struct HoleFillReport {

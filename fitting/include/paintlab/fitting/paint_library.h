@@ -52,7 +52,9 @@ class PaintLibrary {
   // Reads a paint's file after checking its checksum against the index.
   AxfPaint load(const std::string& name) const;
 
-  // Adds a paint (its file is written first, then the index). A paint of the same name is
+  // Adds a paint (its file is written first, then the index); all or nothing: if the index
+  // cannot be written (a full disk), the new file is removed again, and files an earlier
+  // add left behind are removed first. A paint of the same name is
   // refused (DataError naming it and --replace) unless `replace`; a replaced paint's old
   // file is deleted after the new index is in place. Returns the new entry.
   LibraryEntry add(const AxfPaint& paint, bool replace);
@@ -83,6 +85,14 @@ class PaintLibrary {
   };
   Index read_index() const;
   void write_index(const Index& index) const;
+  // The second half of add: the entry of the written file into the index, then the old
+  // file of a replaced paint removed.
+  LibraryEntry commit_added(Index& idx, std::vector<LibraryEntry>::iterator old, const std::string& file,
+                            std::int64_t id);
+  // Removes the paint files (NAME.ID.axf.h5) the index does not name: what an add killed
+  // before its index was written, or a replace that could not delete the old file, left.
+  // Called under the lock by every change; returns how many.
+  int remove_leftovers(const Index& idx) const;
   void step(const std::string& name) const;
 
   std::filesystem::path dir_;
