@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include "cv_util.h"
+#include "paintlab/calibration/cost_functions.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
 
@@ -78,88 +79,67 @@ void CornerOptions::check() const {
     throw OptionError("CornerOptions::max_half_window_px", std::to_string(max_half_window_px), "min_half_window_px..60");
 }
 
+SaddleCost::SaddleCost(const SaddleWindow* w) : w_(w) {
+  set_num_residuals(static_cast<int>(w->values.size()));
+  mutable_parameter_block_sizes()->push_back(kParams);
+}
+
+ceres::CostFunction* SaddleCost::Create(const SaddleWindow* window) { return new SaddleCost(window); }
+
+bool SaddleCost::Evaluate(double const* const* parameters, double* r, double** jacobians) const {
+  const double* x = parameters[0];
+  double* J = jacobians ? jacobians[0] : nullptr;
+  const double s = std::exp(x[4]) * M_SQRT2;
+  if (!std::isfinite(s) || !(s > 0)) return false;
+  const double inv_s = 1.0 / s;
+  const double c1 = std::cos(x[2]), s1 = std::sin(x[2]);
+  const double c2 = std::cos(x[3]), s2 = std::sin(x[3]);
+  const double n1x = -s1, n1y = c1, n2x = -s2, n2y = c2;
+  constexpr double k2_sqrtpi = 1.1283791670955126;  // 2 / sqrt(pi)
+  const int side = 2 * w_->h + 1;
+  for (int j = 0; j < side; ++j) {
+    const double dy = (j - w_->h) - x[1];
+    for (int i = 0; i < side; ++i) {
+      const int k = j * side + i;
+      const double dx = (i - w_->h) - x[0];
+      const double z1 = (n1x * dx + n1y * dy) * inv_s;
+      const double z2 = (n2x * dx + n2y * dy) * inv_s;
+      const double e1 = std::erf(z1), e2 = std::erf(z2);
+      const double P = e1 * e2;
+      const double B = x[6] + x[10] * dx + x[11] * dy;
+      r[k] = x[5] + x[8] * dx + x[9] * dy + B * P + x[7] * P * P - w_->values[static_cast<std::size_t>(k)];
+      if (!J) continue;
+      // dE_k/dz_k, then P's derivatives through z_k = d_k / s.
+      const double g1 = k2_sqrtpi * std::exp(-z1 * z1), g2 = k2_sqrtpi * std::exp(-z2 * z2);
+      const double a1 = e2 * g1 * inv_s, a2 = e1 * g2 * inv_s;  // dP/dd_1, dP/dd_2
+      const double dPdx = -(a1 * n1x + a2 * n2x);
+      const double dPdy = -(a1 * n1y + a2 * n2y);
+      const double dPdt1 = a1 * (-c1 * dx - s1 * dy);
+      const double dPdt2 = a2 * (-c2 * dx - s2 * dy);
+      const double dPdls = -(e2 * g1 * z1 + e1 * g2 * z2);
+      const double dIdP = B + 2.0 * x[7] * P;
+      double* row = J + static_cast<std::size_t>(k) * kParams;
+      row[0] = -x[8] - x[10] * P + dIdP * dPdx;
+      row[1] = -x[9] - x[11] * P + dIdP * dPdy;
+      row[2] = dIdP * dPdt1;
+      row[3] = dIdP * dPdt2;
+      row[4] = dIdP * dPdls;
+      row[5] = 1.0;
+      row[6] = P;
+      row[7] = P * P;
+      row[8] = dx;
+      row[9] = dy;
+      row[10] = dx * P;
+      row[11] = dy * P;
+    }
+  }
+  return true;
+}
+
 namespace {
 
-// Pixel values of a square window, centre (cx, cy) integer, half size h.
-struct Window {
-  int cx = 0, cy = 0, h = 0;
-  std::vector<double> values;  // row-major (2h+1)^2
-};
-
-// The checker model around one corner. Parameters (coordinates relative to the window
-// centre): x, y, theta1, theta2, log sigma, a, b, c, gx, gy, bx, by:
-//   I = a + gx du + gy dv + (b + bx du + by dv) P + c P^2,
-//   P = erf(d1 / (sqrt2 sigma)) erf(d2 / (sqrt2 sigma))
-// with (du, dv) = (u - x, v - y) and d_i the signed distance from the edge through (x, y)
-// at angle theta_i. Illumination that varies over the window scales the contrast too: du P
-// is odd about the corner, so without bx, by the fit would absorb it as a corner shift.
-// sigma includes the pixel's box integration (sigma^2 = optics^2 + 1/12 for a Gaussian
-// PSF). Modelling the box exactly (erf averaged over the pixel square) was measured to
-// change corner positions by < 0.001 px on synthetic boards, so the cheaper form is used.
-constexpr int kParams = 12;
-
-// The model and its analytic Jacobian (about 4x faster than automatic differentiation with
-// 12-wide jets; the corner fits dominate the cost of a calibration).
-class SaddleCost final : public ceres::CostFunction {
- public:
-  explicit SaddleCost(const Window* w) : w_(w) {
-    set_num_residuals(static_cast<int>(w->values.size()));
-    mutable_parameter_block_sizes()->push_back(kParams);
-  }
-
-  bool Evaluate(double const* const* parameters, double* r, double** jacobians) const override {
-    const double* x = parameters[0];
-    double* J = jacobians ? jacobians[0] : nullptr;
-    const double s = std::exp(x[4]) * M_SQRT2;
-    if (!std::isfinite(s) || !(s > 0)) return false;
-    const double inv_s = 1.0 / s;
-    const double c1 = std::cos(x[2]), s1 = std::sin(x[2]);
-    const double c2 = std::cos(x[3]), s2 = std::sin(x[3]);
-    const double n1x = -s1, n1y = c1, n2x = -s2, n2y = c2;
-    constexpr double k2_sqrtpi = 1.1283791670955126;  // 2 / sqrt(pi)
-    const int side = 2 * w_->h + 1;
-    for (int j = 0; j < side; ++j) {
-      const double dy = (j - w_->h) - x[1];
-      for (int i = 0; i < side; ++i) {
-        const int k = j * side + i;
-        const double dx = (i - w_->h) - x[0];
-        const double z1 = (n1x * dx + n1y * dy) * inv_s;
-        const double z2 = (n2x * dx + n2y * dy) * inv_s;
-        const double e1 = std::erf(z1), e2 = std::erf(z2);
-        const double P = e1 * e2;
-        const double B = x[6] + x[10] * dx + x[11] * dy;
-        r[k] = x[5] + x[8] * dx + x[9] * dy + B * P + x[7] * P * P - w_->values[static_cast<std::size_t>(k)];
-        if (!J) continue;
-        // dE_k/dz_k, then P's derivatives through z_k = d_k / s.
-        const double g1 = k2_sqrtpi * std::exp(-z1 * z1), g2 = k2_sqrtpi * std::exp(-z2 * z2);
-        const double a1 = e2 * g1 * inv_s, a2 = e1 * g2 * inv_s;  // dP/dd_1, dP/dd_2
-        const double dPdx = -(a1 * n1x + a2 * n2x);
-        const double dPdy = -(a1 * n1y + a2 * n2y);
-        const double dPdt1 = a1 * (-c1 * dx - s1 * dy);
-        const double dPdt2 = a2 * (-c2 * dx - s2 * dy);
-        const double dPdls = -(e2 * g1 * z1 + e1 * g2 * z2);
-        const double dIdP = B + 2.0 * x[7] * P;
-        double* row = J + static_cast<std::size_t>(k) * kParams;
-        row[0] = -x[8] - x[10] * P + dIdP * dPdx;
-        row[1] = -x[9] - x[11] * P + dIdP * dPdy;
-        row[2] = dIdP * dPdt1;
-        row[3] = dIdP * dPdt2;
-        row[4] = dIdP * dPdls;
-        row[5] = 1.0;
-        row[6] = P;
-        row[7] = P * P;
-        row[8] = dx;
-        row[9] = dy;
-        row[10] = dx * P;
-        row[11] = dy * P;
-      }
-    }
-    return true;
-  }
-
- private:
-  const Window* w_;
-};
+using Window = SaddleWindow;
+constexpr int kParams = SaddleCost::kParams;
 
 bool load_window(const cv::Mat& img, int cx, int cy, int h, Window* w) {
   if (cx - h < 0 || cy - h < 0 || cx + h >= img.cols || cy + h >= img.rows) return false;
@@ -223,7 +203,7 @@ SaddleResult fit_saddle(const cv::Mat& img, const Vec2& start, double theta1, do
     p[7] = p[8] = p[9] = p[10] = p[11] = 0.0;
   }
   const int n = static_cast<int>(w.values.size());
-  auto* cost = new SaddleCost(&w);
+  auto* cost = SaddleCost::Create(&w);
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   std::unique_ptr<ceres::CostFunction> owned(cost);

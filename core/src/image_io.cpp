@@ -88,13 +88,13 @@ void write_exr(const fs::path& path, const ExrImage& image, bool half) {
   });
 }
 
-ExrImage read_exr(const fs::path& path) {
+ExrImage read_exr(const fs::path& path, const ExrLimits& limits) {
   require_readable_file(path);
   try {
     // OpenEXR checks the header's window and tile sizes against these before it allocates the
     // line-offset table of a damaged file (process-wide; set once, before the first open).
-    static std::once_flag limits;
-    std::call_once(limits, [] {
+    static std::once_flag openexr_limits;
+    std::call_once(openexr_limits, [] {
       Imf::Header::setMaxImageSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
       Imf::Header::setMaxTileSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
     });
@@ -105,10 +105,11 @@ ExrImage read_exr(const fs::path& path) {
     const std::int64_t w = std::int64_t{dw.max.x} - dw.min.x + 1, h = std::int64_t{dw.max.y} - dw.min.y + 1;
     std::int64_t channels = 0;
     for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it) ++channels;
-    if (w < 1 || h < 1 || w > kMaxExrSide || h > kMaxExrSide || w * h * std::max<std::int64_t>(channels, 1) > kMaxExrValues)
+    const std::int64_t max_side = std::min(limits.max_side, kMaxExrSide);
+    if (w < 1 || h < 1 || w > max_side || h > max_side || w * h * std::max<std::int64_t>(channels, 1) > limits.max_values)
       throw DataError(fmt::format("{}: data window {} x {} with {} channels is outside what paintlab reads (sides 1..{}, "
                                   "at most {} values)",
-                                  path.string(), w, h, channels, kMaxExrSide, kMaxExrValues));
+                                  path.string(), w, h, channels, max_side, limits.max_values));
     ExrImage img;
     img.width = static_cast<int>(w);
     img.height = static_cast<int>(h);

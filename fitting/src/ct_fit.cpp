@@ -17,6 +17,7 @@
 
 #include "fit_solver.h"
 #include "fit_util.h"
+#include "paintlab/fitting/cost_functions.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/log.h"
 
@@ -32,6 +33,86 @@ using detail::thread_count;
 
 constexpr int kMaxLobes = 3;
 constexpr double kMinModelValue = 1e-30;  // 1/sr
+
+}  // namespace
+
+CtChunkCost::CtChunkCost(const FitData* data, std::vector<const FitBin*> bins, int lobes)
+    : data_(data), bins_(std::move(bins)), n_(lobes), linear_(data->linear) {
+  set_num_residuals(3 * static_cast<int>(bins_.size()));
+  for (int c = 0; c < 3; ++c) mutable_parameter_block_sizes()->push_back(n_ + 1);
+  mutable_parameter_block_sizes()->push_back(2 * n_);
+}
+
+ceres::CostFunction* CtChunkCost::Create(const FitData* data, std::vector<const FitBin*> bins, int lobes) {
+  return new CtChunkCost(data, std::move(bins), lobes);
+}
+
+bool CtChunkCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  using Jet = ceres::Jet<double, 2>;
+  const double* nl = parameters[3];
+  const int nlin = n_ + 1, nnl = 2 * n_;
+  const bool want_jacobian = jacobians != nullptr;
+  for (std::size_t q = 0; q < bins_.size(); ++q) {
+    const FitBin& b = *bins_[q];
+    // The lobes averaged over the point's member bins (one for an unpooled bin).
+    std::array<double, kMaxLobes> value{}, dm{}, dr{};
+    for (const FitMember* mb = members_begin(*data_, b); mb != members_end(*data_, b); ++mb)
+      for (int l = 0; l < n_; ++l) {
+        if (want_jacobian) {
+          const Jet lobe = brdf::ct_lobe(Jet(nl[2 * l], 0), Jet(nl[2 * l + 1], 1), mb->geometry);
+          value[l] += mb->weight * lobe.a;
+          dm[l] += mb->weight * lobe.v[0];
+          dr[l] += mb->weight * lobe.v[1];
+        } else {
+          value[l] += mb->weight * brdf::ct_lobe(nl[2 * l], nl[2 * l + 1], mb->geometry);
+        }
+      }
+    for (int c = 0; c < 3; ++c) {
+      const std::size_t row = 3 * q + static_cast<std::size_t>(c);
+      const double* lin = parameters[c];
+      const double w = b.inv_sigma[c];
+      double f = 0.0, g = 0.0;  // g: d residual / d f
+      if (w != 0.0) {
+        f = lin[0] * std::numbers::inv_pi;
+        for (int l = 0; l < n_; ++l) f += lin[1 + l] * value[l];
+        if (linear_) {
+          if (!std::isfinite(f)) return false;
+          g = b.linear_weight[c];
+          residuals[row] = (f - b.value[c]) * g;
+        } else {
+          // A model value this small (all of a channel's terms at their bound or underflowed)
+          // is no BRDF: the step is rejected, and 1/f cannot overflow the Jacobian.
+          if (!(f > kMinModelValue) || !std::isfinite(f)) return false;
+          residuals[row] = (std::log(f) - b.target[c]) * w;
+          g = w / f;
+        }
+      } else {
+        residuals[row] = 0.0;
+      }
+      if (!want_jacobian) continue;
+      for (int cb = 0; cb < 3; ++cb) {
+        if (!jacobians[cb]) continue;
+        double* jl = jacobians[cb] + row * nlin;
+        if (cb != c || g == 0.0) {
+          std::fill(jl, jl + nlin, 0.0);
+          continue;
+        }
+        jl[0] = std::numbers::inv_pi * g;
+        for (int l = 0; l < n_; ++l) jl[1 + l] = value[l] * g;
+      }
+      if (jacobians[3]) {
+        double* jn = jacobians[3] + row * nnl;
+        for (int l = 0; l < n_; ++l) {
+          jn[2 * l] = lin[1 + l] * dm[l] * g;
+          jn[2 * l + 1] = lin[1 + l] * dr[l] * g;
+        }
+      }
+    }
+  }
+  return true;
+}
+
+namespace {
 
 // Parameters in the layout of the Ceres problem: per channel (kd_c, ks_1c .. ks_Nc), and
 // (m_1, r_1, .., m_N, r_N).
@@ -52,91 +133,6 @@ struct CtParams {
     }
     return p;
   }
-};
-
-// One residual block: the whitened log residuals of a chunk of bins, 3 per bin (R, G, B:
-// row 3q + c). Parameter blocks: lin[0], lin[1], lin[2] (N + 1 each) and nl (2N). The
-// lobes are evaluated once per bin for all channels: with a 2-dimensional Jet in (m, r)
-// of brdf::ct_lobe when Ceres asks for Jacobians, in plain doubles otherwise.
-class CtChunkCost final : public ceres::CostFunction {
- public:
-  CtChunkCost(const FitData* data, std::vector<const FitBin*> bins, int lobes)
-      : data_(data), bins_(std::move(bins)), n_(lobes), linear_(data->linear) {
-    set_num_residuals(3 * static_cast<int>(bins_.size()));
-    for (int c = 0; c < 3; ++c) mutable_parameter_block_sizes()->push_back(n_ + 1);
-    mutable_parameter_block_sizes()->push_back(2 * n_);
-  }
-
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    using Jet = ceres::Jet<double, 2>;
-    const double* nl = parameters[3];
-    const int nlin = n_ + 1, nnl = 2 * n_;
-    const bool want_jacobian = jacobians != nullptr;
-    for (std::size_t q = 0; q < bins_.size(); ++q) {
-      const FitBin& b = *bins_[q];
-      // The lobes averaged over the point's member bins (one for an unpooled bin).
-      std::array<double, kMaxLobes> value{}, dm{}, dr{};
-      for (const FitMember* mb = members_begin(*data_, b); mb != members_end(*data_, b); ++mb)
-        for (int l = 0; l < n_; ++l) {
-          if (want_jacobian) {
-            const Jet lobe = brdf::ct_lobe(Jet(nl[2 * l], 0), Jet(nl[2 * l + 1], 1), mb->geometry);
-            value[l] += mb->weight * lobe.a;
-            dm[l] += mb->weight * lobe.v[0];
-            dr[l] += mb->weight * lobe.v[1];
-          } else {
-            value[l] += mb->weight * brdf::ct_lobe(nl[2 * l], nl[2 * l + 1], mb->geometry);
-          }
-        }
-      for (int c = 0; c < 3; ++c) {
-        const std::size_t row = 3 * q + static_cast<std::size_t>(c);
-        const double* lin = parameters[c];
-        const double w = b.inv_sigma[c];
-        double f = 0.0, g = 0.0;  // g: d residual / d f
-        if (w != 0.0) {
-          f = lin[0] * std::numbers::inv_pi;
-          for (int l = 0; l < n_; ++l) f += lin[1 + l] * value[l];
-          if (linear_) {
-            if (!std::isfinite(f)) return false;
-            g = b.linear_weight[c];
-            residuals[row] = (f - b.value[c]) * g;
-          } else {
-            // A model value this small (all of a channel's terms at their bound or underflowed)
-            // is no BRDF: the step is rejected, and 1/f cannot overflow the Jacobian.
-            if (!(f > kMinModelValue) || !std::isfinite(f)) return false;
-            residuals[row] = (std::log(f) - b.target[c]) * w;
-            g = w / f;
-          }
-        } else {
-          residuals[row] = 0.0;
-        }
-        if (!want_jacobian) continue;
-        for (int cb = 0; cb < 3; ++cb) {
-          if (!jacobians[cb]) continue;
-          double* jl = jacobians[cb] + row * nlin;
-          if (cb != c || g == 0.0) {
-            std::fill(jl, jl + nlin, 0.0);
-            continue;
-          }
-          jl[0] = std::numbers::inv_pi * g;
-          for (int l = 0; l < n_; ++l) jl[1 + l] = value[l] * g;
-        }
-        if (jacobians[3]) {
-          double* jn = jacobians[3] + row * nnl;
-          for (int l = 0; l < n_; ++l) {
-            jn[2 * l] = lin[1 + l] * dm[l] * g;
-            jn[2 * l + 1] = lin[1 + l] * dr[l] * g;
-          }
-        }
-      }
-    }
-    return true;
-  }
-
- private:
-  const FitData* data_;
-  std::vector<const FitBin*> bins_;
-  int n_;
-  bool linear_;
 };
 
 struct Solved {
@@ -164,7 +160,7 @@ void build_problem(ProblemHolder& h, const FitData& data, const std::vector<cons
                                     bins.begin() + static_cast<std::ptrdiff_t>(e));
     ceres::LossFunction* loss = o.huber_scale > 0.0 ? new ceres::HuberLoss(o.huber_scale) : nullptr;
     h.ids.push_back(problem.AddResidualBlock(
-        new CtChunkCost(&data, std::move(part), n), loss,
+        CtChunkCost::Create(&data, std::move(part), n), loss,
         std::vector<double*>{p.lin[0].data(), p.lin[1].data(), p.lin[2].data(), p.nl.data()}));
     ++h.residual_blocks;
   }

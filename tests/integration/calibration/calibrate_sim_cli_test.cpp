@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "paintlab/core/json.h"
+#include "sim_rigs.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -17,42 +18,17 @@ namespace {
 
 // A 640x480 camera with a 19.4 mm lens: the sphere is ~100 px in radius.
 std::string rig_toml(const fs::path& calib, const std::string& sphere_centre) {
-  return fmt::format(R"(name = "calib-cli-rig"
-calibration = "{calib}"
-
-[devices.turntable]
-kind = "sim"
-register_map = "oriental-az"
-
-[devices.light]
-kind = "sim"
-
-[devices.camera]
-kind = "sim"
-pixel_format = "Mono16"
-
-[geometry]
-sphere_radius_m = 0.04
-arm_radius_m = 0.6
-camera_distance_m = 1.2
-camera_height_m = 0.05
-focal_length_mm = 19.35
-pixel_size_um = 6.45
-image_width_px = 640
-image_height_px = 480
-
-[plan]
-angle_start_deg = 0
-angle_stop_deg = 40
-angle_step_deg = 20
-settle_s = 0.1
-dark_frames = 2
-[plan.bracket]
-min_ms = 0.5
-max_ms = 200
-count = 6
-
-[sim]
+  test::SimRigSpec s;
+  s.name = "calib-cli-rig";
+  s.calibration = calib.string();
+  s.width = 640;
+  s.height = 480;
+  s.focal_length_mm = 19.35;
+  s.positions = 3;
+  s.step_deg = 20;
+  s.settle_s = 0.1;
+  s.exposures = 6;
+  s.extra = fmt::format(R"([sim]
 seed = 7
 [sim.camera]
 fx_px = 3008.0
@@ -66,9 +42,10 @@ arm_radius_m = 0.6015
 arm_height_m = 0.002
 zero_deg = 0.3
 [sim.sphere]
-centre_m = {centre}
+centre_m = {}
 )",
-                     fmt::arg("calib", calib.string()), fmt::arg("centre", sphere_centre));
+                        sphere_centre);
+  return test::sim_rig_toml(s);
 }
 
 }  // namespace

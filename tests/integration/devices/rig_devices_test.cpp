@@ -8,6 +8,7 @@
 #include "paintlab/core/rig.h"
 #include "paintlab/sim/peers/sim_rig.h"
 #include "rig_devices.h"
+#include "sim_rigs.h"
 #include "test_util.h"
 
 namespace paintlab {
@@ -15,29 +16,18 @@ namespace {
 
 // A small simulated rig (320 x 240 px) so that rendering stays fast.
 std::string small_sim_rig(const std::string& turntable_extra = "") {
-  return R"(name = "small-sim"
-[devices.turntable]
-kind = "sim"
-speed_deg_s = 60
-accel_deg_s2 = 240
-)" + turntable_extra + R"(
-[devices.light]
-kind = "sim"
-[devices.camera]
-kind = "sim"
-pixel_format = "Mono16"
-[geometry]
-sphere_radius_m = 0.04
-arm_radius_m = 0.6
-camera_distance_m = 1.2
-focal_length_mm = 12
-image_width_px = 320
-image_height_px = 240
-[plan]
-exposures_ms = [1, 10]
-[sim]
-seed = 7
-)";
+  test::SimRigSpec s;
+  s.name = "small-sim";
+  s.turntable_extra = "speed_deg_s = 60\naccel_deg_s2 = 240\n" + turntable_extra;
+  s.focal_length_mm = 12;
+  s.camera_height_m = 0.0;
+  s.positions = 181;
+  s.step_deg = 1;
+  s.settle_s = 0.5;
+  s.dark_frames = std::nullopt;
+  s.exposures_ms = "[1, 10]";
+  s.extra = "[sim]\nseed = 7\n";
+  return test::sim_rig_toml(s);
 }
 
 // Mean of a square patch.

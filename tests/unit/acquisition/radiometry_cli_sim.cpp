@@ -21,6 +21,7 @@
 #include "paintlab/sim/camera_model.h"
 #include "paintlab/sim/config.h"
 #include "paintlab/sim/sensor.h"
+#include "sim_rigs.h"
 #include "test_util.h"
 
 using namespace paintlab;
@@ -32,49 +33,24 @@ namespace {
 // 320x240, 12-bit ADC read out as Mono16, a nonlinear response R(x) = 0.7x + 0.5x^2 - 0.2x^3
 // and mechanical vignetting on top of cos^4.
 std::string rig_toml(const fs::path& calib) {
-  return fmt::format(R"(name = "radiometry-cli-rig"
-calibration = "{calib}"
-
-[devices.turntable]
-kind = "sim"
-register_map = "oriental-az"
-
-[devices.light]
-kind = "sim"
-
-[devices.camera]
-kind = "sim"
-pixel_format = "Mono16"
-
-[geometry]
-sphere_radius_m = 0.04
-arm_radius_m = 0.6
-camera_distance_m = 1.2
-camera_height_m = 0.05
-focal_length_mm = 12
-pixel_size_um = 6.45
-image_width_px = 320
-image_height_px = 240
-
-[plan]
-angle_start_deg = 0
-angle_stop_deg = 40
-angle_step_deg = 20
-settle_s = 0.1
-[plan.bracket]
-min_ms = 0.5
-max_ms = 200
-count = 6
-
-[sim]
+  test::SimRigSpec s;
+  s.name = "radiometry-cli-rig";
+  s.calibration = calib.string();
+  s.focal_length_mm = 12;
+  s.positions = 3;
+  s.step_deg = 20;
+  s.settle_s = 0.1;
+  s.dark_frames = std::nullopt;
+  s.exposures = 6;
+  s.extra = R"([sim]
 seed = 11
 [sim.camera]
 vignetting = [-0.25, 0.0]
 [sim.sensor]
 response = [0.7, 0.5, -0.2]
 hot_pixel_frac = 3e-4
-)",
-                     fmt::arg("calib", calib.string()));
+)";
+  return test::sim_rig_toml(s);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "paintlab/core/image_io.h"
+#include "sim_rigs.h"
 #include "test_util.h"
 
 using namespace paintlab;
@@ -12,29 +13,19 @@ namespace {
 
 // A small simulated rig (320 x 240, 12 mm lens) so the commands run fast.
 std::string rig_text() {
-  return R"(name = "small-sim"
-[devices.turntable]
-kind = "sim"
-[devices.light]
-kind = "sim"
-[devices.camera]
-kind = "sim"
-[geometry]
-sphere_radius_m = 0.04
-arm_radius_m = 0.6
-camera_distance_m = 1.2
-camera_height_m = 0.05
-focal_length_mm = 12
-image_width_px = 320
-image_height_px = 240
-[plan]
-exposures_ms = [1, 10, 100]
-[sim]
+  test::SimRigSpec s;
+  s.name = "small-sim";
+  s.focal_length_mm = 12;
+  s.positions = 181;
+  s.step_deg = 1;
+  s.exposures_ms = "[1, 10, 100]";
+  s.extra = R"([sim]
 seed = 5
 [sim.camera]
 dist = [-0.2, 0.1, 0.0, 0.0, 0.0]
 psf_sigma_px = 0.5
 )";
+  return test::sim_rig_toml(s);
 }
 
 }  // namespace
@@ -84,7 +75,7 @@ TEST(SimCli, BadInputExitsWithTwo) {
   auto r = test::run_paintlab("sim render --rig " + (dir / "rig.toml").string() + " --paint " + paint + " --out " +
                               (dir / "x.exr").string());
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_THAT(r.err, HasSubstr("rig.toml:23: key 'sim.camera.typo_key': unknown key"));
+  EXPECT_THAT(r.err, HasSubstr("rig.toml:40: key 'sim.camera.typo_key': unknown key"));
   test::write_text(dir / "rig.toml", rig_text());
   r = test::run_paintlab("sim render --rig " + (dir / "rig.toml").string() + " --paint " + paint + " --out " +
                          (dir / "x.jpg").string());

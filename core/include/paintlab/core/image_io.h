@@ -32,7 +32,13 @@ void write_exr(const std::filesystem::path& path, const ExrImage& image, bool ha
 // header outside them is a DataError before the planes are allocated. A rig's images are a few Mpx.
 inline constexpr std::int64_t kMaxExrSide = 32768;
 inline constexpr std::int64_t kMaxExrValues = std::int64_t{1} << 27;
-ExrImage read_exr(const std::filesystem::path& path);
+struct ExrLimits {
+  std::int64_t max_side = kMaxExrSide;      // at most kMaxExrSide (OpenEXR's own check is set to it)
+  std::int64_t max_values = kMaxExrValues;  // width x height x channels
+};
+// `limits` smaller than the defaults are for callers that know their images are small (the
+// fuzz harness: so that a mutated header cannot make every run allocate hundreds of MB).
+ExrImage read_exr(const std::filesystem::path& path, const ExrLimits& limits = {});
 
 // A camera-value image read from PNG/TIFF/PGM: 8 or 16 bit, 1 or 3 channels.
 struct RawImage {
