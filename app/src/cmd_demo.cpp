@@ -23,13 +23,13 @@
 #include <sstream>
 #include <toml++/toml.h>
 
-#include "rig_devices.h"
 #include "cli.h"
 #include "output_guard.h"
 #include "paintlab/brdf/paint.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/response.h"
 #include "paintlab/calibration/rig_calibration.h"
+#include "paintlab/calibration/score.h"
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/config.h"
 #include "paintlab/core/error.h"
@@ -39,6 +39,7 @@
 #include "paintlab/sim/config.h"
 #include "paintlab/sim/sensor.h"
 #include "paintlab/sim/world.h"
+#include "rig_devices.h"
 #include "resources.h"
 
 extern char** environ;
@@ -176,67 +177,26 @@ void ignore_interrupts_while_children_run() {
   sigaction(SIGTERM, &sa, nullptr);
 }
 
-// The calibration's errors against the simulator's truth.
-Json calibration_errors(const RigConfig& rig, const sim::SimConfig& truth) {
-  Json out = Json::object();
-  calib::RigCalibration cal = calib::RigCalibration::load(rig);
-  const Mat3 K = truth.camera.K();
-  if (cal.intrinsics()) {
-    const calib::CameraModel& cam = cal.intrinsics()->camera;
-    out["reprojection_rms_px"] = cal.intrinsics()->rms_px;
-    out["focal_error_rel"] = (cam.fx() - K(0, 0)) / K(0, 0);
-    out["principal_point_error_px"] = std::hypot(cam.cx() - K(0, 2), cam.cy() - K(1, 2));
-    // The calibration's own 1-sigma of the principal point (a long lens leaves it loose).
-    const Json& cj = cal.files().at(calib::kCameraFile).json;
-    if (cj.contains("std") && cj["std"].contains("cx"))
-      out["principal_point_std_px"] = std::hypot(cj["std"].value("cx", 0.0), cj["std"].value("cy", 0.0));
-  }
+// The simulator's truth as the plain numbers calib::score_calibration takes.
+calib::CalibrationTruth calibration_truth(const RigConfig& rig, const sim::SimConfig& truth) {
+  calib::CalibrationTruth t;
+  t.K = truth.camera.K();
   const sim::SimWorld world(truth);
-  const Vec3 centre_true = world.sphere_centre_cam();
-  if (cal.sphere()) out["sphere_centre_error_mm"] = (cal.sphere()->centre_cam_m - centre_true).norm() * 1e3;
-  if (cal.light() && cal.sphere()) {
-    // The angle at the sphere centre between the camera and the LED (what the BRDF sees,
-    // and independent of a small rotation of the whole camera frame, which a long lens's
-    // principal point leaves uncertain), calibrated vs true, worst over the plan; and the
-    // LED direction in the camera frame itself.
-    double worst = 0, worst_dir = 0;
-    const Vec3 c_cal = cal.sphere()->centre_cam_m;
-    for (double a : rig.plan.angles_deg()) {
-      const Vec3 l_cal = (cal.led_position_cam(a) - c_cal).normalized();
-      const Vec3 l_true = (world.led_position_cam(a) - centre_true).normalized();
-      auto angle = [](const Vec3& u, const Vec3& v) { return std::acos(std::clamp(u.dot(v), -1.0, 1.0)) * 180.0 / M_PI; };
-      const double phase_cal = angle(l_cal, (-c_cal).normalized());
-      const double phase_true = angle(l_true, (-centre_true).normalized());
-      worst = std::max(worst, std::abs(phase_cal - phase_true));
-      worst_dir = std::max(worst_dir, angle(l_cal, l_true));
-    }
-    out["light_angle_error_deg"] = worst;
-    out["light_direction_error_deg"] = worst_dir;
-    out["sphere_distance_error_mm"] = (c_cal.norm() - centre_true.norm()) * 1e3;
+  t.sphere_centre_cam_m = world.sphere_centre_cam();
+  for (double a : rig.plan.angles_deg()) {
+    t.angles_deg.push_back(a);
+    t.led_cam_m.push_back(world.led_position_cam(a));
   }
-  if (cal.has(calib::kResponseFile)) {
-    // g(u) against the true inverse response over the curve's used range, after one scale
-    // (the response is known up to a factor; the absolute scale comes from scale.json).
-    const calib::ResponseCurve g = calib::ResponseCurve::load(cal.path(calib::kResponseFile));
-    const sim::ResponseCurve r(truth.sensor.response_poly);
-    const double shift = std::ldexp(1.0, g.bit_depth - truth.sensor.adc_bits);
-    const double span = (truth.sensor.adc_max_dn() - truth.sensor.black_level_dn) * shift;
-    const double lo = std::max(g.window.floor_dn, 0.02 * span), hi = g.window.u_saturation();
-    double sgt = 0, sgg = 0;
-    std::vector<std::pair<double, double>> pts;
-    for (int i = 0; i <= 200; ++i) {
-      const double u = lo + (hi - lo) * i / 200.0;
-      const double gv = g.to_linear(0, u), tv = r.inverse(u / span) * span;
-      pts.emplace_back(gv, tv);
-      sgt += gv / tv;
-      sgg += gv * gv / (tv * tv);
-    }
-    const double k = sgt / sgg;
-    double worst = 0;
-    for (auto [gv, tv] : pts) worst = std::max(worst, std::abs(k * gv / tv - 1.0));
-    out["response_error_rel"] = worst;
+  const sim::ResponseCurve r(truth.sensor.response_poly);
+  constexpr int kSamples = 4000;  // linear interpolation between them: below 1e-6 of the value
+  for (int i = 0; i <= kSamples; ++i) {
+    const double x = static_cast<double>(i) / kSamples;
+    t.inverse_response.emplace_back(x, r.inverse(x));
   }
-  return out;
+  t.adc_bits = truth.sensor.adc_bits;
+  t.black_level_dn = truth.sensor.black_level_dn;
+  t.adc_max_dn = truth.sensor.adc_max_dn();
+  return t;
 }
 
 std::string rgb(const Json& a) {
@@ -406,7 +366,8 @@ int run_demo(const DemoArgs& a) {
   const bool fit_converged = fit_summary.value("converged", true);
   summary["fit_converged"] = fit_converged;
   summary["fit_termination"] = fit_summary.value("termination", std::string());
-  summary["calibration"] = calibration_errors(rig, truth);
+  summary["calibration"] =
+      calib::score_calibration(calib::RigCalibration::load(rig), calibration_truth(rig, truth)).to_json();
   summary["timings_s"] = {{"calibrate", t_cal + t_check}, {"measure", t_measure}, {"fit", t_fit},
                           {"export", t_export},          {"total", total}};
   summary["files"] = {{"axf", axf.string()},         {"merl", merl.string()},       {"fit", fit_file.string()},

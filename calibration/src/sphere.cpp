@@ -792,12 +792,13 @@ Json SphereFit::to_json() const {
             {"centre_px", Json::array({ellipse_centre_px.x(), ellipse_centre_px.y()})},
             {"semi_axes_px", Json::array({ellipse_axes_px.x(), ellipse_axes_px.y()})},
             {"angle_deg", ellipse_angle_deg}}},
-          {"edge_sigma_px", edge_sigma_px},
-          {"edge_width_px", edge_width_px},
           {"edges_used", edges_used},
           {"edges_total", edges_total},
           {"coverage", coverage},
           {"provenance", provenance.to_json()}};
+  // Figures a fit could not measure (no strong edges) are left out, not written as null.
+  if (std::isfinite(edge_sigma_px)) j["edge_sigma_px"] = edge_sigma_px;
+  if (std::isfinite(edge_width_px)) j["edge_width_px"] = edge_width_px;
   if (std::isfinite(psf_sigma_px)) j["psf_sigma_px"] = psf_sigma_px;
   return j;
 }
@@ -813,9 +814,14 @@ SphereFit SphereFit::from_json(const Json& j, const std::string& where) {
   s.rms_px = json_get<double>(j, "rms_px", where);
   s.max_px = json_get_or<double>(j, "max_px", 0.0, where);
   if (j.contains("ellipse")) s.ellipse_rms_px = json_get_or<double>(j.at("ellipse"), "rms_px", 0.0, where);
-  s.edge_sigma_px = json_get_or<double>(j, "edge_sigma_px", std::numeric_limits<double>::quiet_NaN(), where);
-  s.edge_width_px = json_get_or<double>(j, "edge_width_px", std::numeric_limits<double>::quiet_NaN(), where);
-  s.psf_sigma_px = json_get_or<double>(j, "psf_sigma_px", std::numeric_limits<double>::quiet_NaN(), where);
+  // Absent, or null as earlier versions wrote an unmeasured figure: NaN.
+  const auto optional_figure = [&](const char* key) {
+    const auto it = j.find(key);
+    return it == j.end() || it->is_null() ? std::numeric_limits<double>::quiet_NaN() : json_get<double>(j, key, where);
+  };
+  s.edge_sigma_px = optional_figure("edge_sigma_px");
+  s.edge_width_px = optional_figure("edge_width_px");
+  s.psf_sigma_px = optional_figure("psf_sigma_px");
   s.edges_used = json_get_or<int>(j, "edges_used", 0, where);
   s.edges_total = json_get_or<int>(j, "edges_total", 0, where);
   s.coverage = json_get_or<double>(j, "coverage", 0.0, where);
