@@ -93,11 +93,19 @@ ExrImage read_exr(const fs::path& path, const ExrLimits& limits) {
   try {
     // OpenEXR checks the header's window and tile sizes against these before it allocates the
     // line-offset table of a damaged file (process-wide; set once, before the first open).
+    // Smaller limits than the defaults (the fuzz harness) set OpenEXR's checks for every read
+    // after them: they are for a process that reads only such images.
+    const int side = static_cast<int>(std::min(limits.max_side, kMaxExrSide));
     static std::once_flag openexr_limits;
-    std::call_once(openexr_limits, [] {
-      Imf::Header::setMaxImageSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
-      Imf::Header::setMaxTileSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
-    });
+    if (side < kMaxExrSide) {
+      Imf::Header::setMaxImageSize(side, side);
+      Imf::Header::setMaxTileSize(side, side);
+    } else {
+      std::call_once(openexr_limits, [] {
+        Imf::Header::setMaxImageSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
+        Imf::Header::setMaxTileSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
+      });
+    }
     Imf::InputFile file(path.c_str());
     Imath::Box2i dw = file.header().dataWindow();
     // A damaged header can state any window: bound it before allocating (the largest image a

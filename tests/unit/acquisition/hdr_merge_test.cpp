@@ -39,7 +39,11 @@ struct Camera {
       s += std::sqrt(std::max(s, 0.0) * gain_dn_per_e) * n(rng);
       s = std::min(s, full_dn);
       const double b = (bias ? bias->data()[i] : black) + (dark_rate ? dark_rate->data()[i] * t : 0.0);
-      const double z = std::round(b + f(s) + read_dn * n(rng));
+      // The response is defined on signal >= 0; shot noise on a dark pixel can take s below 0
+      // (the normal approximation), where the odd extension keeps a linear camera unchanged and
+      // a power law finite (pow of a negative number is NaN, and its cast undefined).
+      const double fs = s >= 0.0 ? f(s) : -f(-s);
+      const double z = std::round(b + fs + read_dn * n(rng));
       img.data()[i] = static_cast<std::uint16_t>(std::clamp(z, 0.0, top));
     }
     return img;

@@ -37,7 +37,9 @@ struct ExrLimits {
   std::int64_t max_values = kMaxExrValues;  // width x height x channels
 };
 // `limits` smaller than the defaults are for callers that know their images are small (the
-// fuzz harness: so that a mutated header cannot make every run allocate hundreds of MB).
+// fuzz harness: so that a mutated header cannot make every run allocate hundreds of MB); a
+// smaller side also becomes OpenEXR's own process-wide check, so such a process reads only
+// such images.
 ExrImage read_exr(const std::filesystem::path& path, const ExrLimits& limits = {});
 
 // A camera-value image read from PNG/TIFF/PGM: 8 or 16 bit, 1 or 3 channels.
