@@ -808,7 +808,14 @@ SphereFit SphereFit::from_json(const Json& j, const std::string& where) {
   s.radius_m = json_get<double>(j, "radius_m", where);
   if (!j.contains("centre_cam_m")) throw DataError(where + ": missing key 'centre_cam_m'");
   s.centre_cam_m = vector3_from_json(j.at("centre_cam_m"), where + ": key 'centre_cam_m'");
-  if (j.contains("centre_cov_m2")) s.centre_cov_m2 = matrix_from_json(j.at("centre_cov_m2"), where + ": key 'centre_cov_m2'");
+  if (j.contains("centre_cov_m2")) {
+    // Found fuzzing: a matrix of another shape assigned to the 3 x 3 covariance.
+    const Eigen::MatrixXd cov = matrix_from_json(j.at("centre_cov_m2"), where + ": key 'centre_cov_m2'");
+    if (cov.rows() != 3 || cov.cols() != 3)
+      throw DataError(where + ": key 'centre_cov_m2': expected a 3 x 3 matrix, got " + std::to_string(cov.rows()) +
+                      " x " + std::to_string(cov.cols()));
+    s.centre_cov_m2 = cov;
+  }
   s.axis = s.centre_cam_m.normalized();
   s.half_angle_rad = std::asin(std::min(1.0, s.radius_m / s.centre_cam_m.norm()));
   s.rms_px = json_get<double>(j, "rms_px", where);

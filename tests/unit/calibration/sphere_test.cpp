@@ -139,3 +139,21 @@ TEST(SphereSim, NoSphereInTheImageSaysSo) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("no bright sphere found in 'lens-cap'"));
   }
 }
+
+// Found fuzzing sphere.json: a centre covariance of another shape was assigned to the 3 x 3
+// matrix (an Eigen assertion in a debug build, memory overwritten in a release one).
+TEST(SphereFitFile, ACovarianceOfTheWrongShapeIsADataError) {
+  SphereFit s;
+  s.radius_m = 0.04;
+  s.centre_cam_m = Vec3(0.0, 0.0, 1.2);
+  Json j = s.to_json();
+  j["centre_cov_m2"] = Json::array({Json::array({1e-8, 0.0}), Json::array({0.0, 1e-8})});
+  try {
+    (void)SphereFit::from_json(j, "sphere.json");
+    ADD_FAILURE() << "a 2 x 2 covariance was read";
+  } catch (const DataError& e) {
+    EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("sphere.json: key 'centre_cov_m2': expected a 3 x 3 matrix, got 2 x 2"));
+  }
+  j["centre_cov_m2"] = matrix_to_json(Eigen::Matrix3d::Identity() * 1e-8);
+  EXPECT_DOUBLE_EQ(SphereFit::from_json(j, "sphere.json").centre_cov_m2(2, 2), 1e-8);
+}
