@@ -5,7 +5,8 @@
 # into build-fuzz/findings/HARNESS/).
 # Usage: bash scripts/fuzz.sh [SECONDS] [HARNESS...]   (harnesses: rig_toml paint_toml
 #        records_json exr merl axf; default all). Set up with scripts/setup.sh first.
-#        PAINTLAB_FUZZ_BUILD_DIR picks the build folder (default build-fuzz).
+#        PAINTLAB_FUZZ_BUILD_DIR picks the build folder (default build-fuzz);
+#        PAINTLAB_FUZZ_ARGS adds libFuzzer flags (long runs: "-runs=1000000 -detect_leaks=0").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-30}
@@ -42,7 +43,7 @@ for h in "${harnesses[@]}"; do
   # -timeout: an input that takes over 10 s is a hang.
   if ! ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
        "$BUILD/tests/fuzz/fuzz_$h" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -malloc_limit_mb=2048 \
-       -print_final_stats=1 -artifact_prefix="$findings/" "$corpus" 2>"$BUILD/fuzz_$h.log"; then
+       -print_final_stats=1 -artifact_prefix="$findings/" ${PAINTLAB_FUZZ_ARGS:-} "$corpus" 2>"$BUILD/fuzz_$h.log"; then
     echo "fuzz_$h: FOUND A PROBLEM (input in $findings/); the end of its log:"
     tail -40 "$BUILD/fuzz_$h.log"
     status=1

@@ -13,9 +13,14 @@
 
 #include <fmt/format.h>
 
+#include <ImfIO.h>
+
 #include <algorithm>
 #include <cstdint>
+#include <cstring>
 #include <mutex>
+#include <string_view>
+#include <utility>
 
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
@@ -88,8 +93,132 @@ void write_exr(const fs::path& path, const ExrImage& image, bool half) {
   });
 }
 
+namespace {
+
+// An OpenEXR input stream over a file's bytes already in memory (read once, checked by
+// check_exr_header, then parsed by OpenEXR without a second open).
+class ExrMemoryStream final : public Imf::IStream {
+ public:
+  ExrMemoryStream(const fs::path& path, std::string_view bytes) : Imf::IStream(path.c_str()), bytes_(bytes) {}
+  bool read(char c[], int n) override {
+    if (n < 0 || static_cast<std::uint64_t>(n) > bytes_.size() - pos_)
+      throw std::runtime_error("unexpected end of file");
+    std::memcpy(c, bytes_.data() + pos_, static_cast<std::size_t>(n));
+    pos_ += static_cast<std::uint64_t>(n);
+    return pos_ < bytes_.size();
+  }
+  std::uint64_t tellg() override { return pos_; }
+  void seekg(std::uint64_t pos) override {
+    if (pos > bytes_.size()) throw std::runtime_error("seek past the end of the file");
+    pos_ = pos;
+  }
+
+ private:
+  std::string_view bytes_;
+  std::uint64_t pos_ = 0;
+};
+
+constexpr std::size_t kSizeFromHeader = static_cast<std::size_t>(-1);
+constexpr std::size_t kNotWellFormed = static_cast<std::size_t>(-2);
+
+// The size OpenEXR's reader takes for an attribute value of `type` (OpenEXR 3.1: fixed sizes
+// for the numeric types, a zero-terminated list for channel lists, width x height x 4 bytes
+// after the sides for previews); kSizeFromHeader for the types it reads by the stated size
+// (strings, vectors, types it does not know).
+std::size_t implied_exr_attribute_size(std::string_view type, std::string_view value) {
+  static constexpr std::pair<std::string_view, std::size_t> kFixed[] = {
+      {"box2i", 16},          {"box2f", 16},    {"chromaticities", 32}, {"compression", 1}, {"double", 8},
+      {"envmap", 1},          {"float", 4},     {"int", 4},             {"keycode", 28},    {"lineOrder", 1},
+      {"m33f", 36},           {"m33d", 72},     {"m44f", 64},           {"m44d", 128},      {"rational", 8},
+      {"tiledesc", 9},        {"timecode", 8},  {"v2i", 8},             {"v2f", 8},         {"v2d", 16},
+      {"v3i", 12},            {"v3f", 12},      {"v3d", 24},            {"deepImageState", 1}};
+  for (const auto& [name, size] : kFixed)
+    if (type == name) return size;
+  const auto u32 = [&](std::size_t i) {
+    std::uint32_t v = 0;
+    for (int b = 3; b >= 0; --b) v = v << 8 | static_cast<unsigned char>(value[i + static_cast<std::size_t>(b)]);
+    return v;
+  };
+  if (type == "chlist") {
+    // Per channel: name\0 (at most 255 characters), pixel type, pLinear + 3 reserved bytes,
+    // x and y sampling (16 bytes); an empty name ends the list.
+    std::size_t at = 0;
+    while (true) {
+      const std::size_t end = value.find('\0', at);
+      if (end == std::string_view::npos || end - at > 255) return kNotWellFormed;
+      if (end == at) return at + 1;
+      at = end + 1 + 16;
+      if (at > value.size()) return kNotWellFormed;
+    }
+  }
+  if (type == "preview") {
+    if (value.size() < 8) return kNotWellFormed;
+    const std::uint64_t pixels = std::uint64_t{u32(0)} * u32(4);
+    return pixels > value.size() ? kNotWellFormed : static_cast<std::size_t>(8 + 4 * pixels);
+  }
+  return kSizeFromHeader;
+}
+
+// Walks the header(s) of an OpenEXR file (the layout of openexr.com's "OpenEXR File Layout":
+// magic number 20000630, a version word whose bit 12 marks multi-part files and bit 10 long
+// attribute names, then per header attributes of name\0 type\0 int32-size value, ended by an
+// empty name; multi-part files end their list of headers with an empty header) and refuses an
+// attribute whose stated size runs past the end of the file. OpenEXR sizes a string or unknown
+// attribute from that number before it reads it: one damaged size word would make it allocate
+// and clear up to 2 GB for a file of a few hundred bytes.
+void check_exr_header(const fs::path& path, std::string_view bytes) {
+  auto damaged = [&](const std::string& what) {
+    return DataError(path.string() + ": not a readable OpenEXR file: " + what);
+  };
+  if (bytes.size() < 8) throw damaged("shorter than an OpenEXR header");
+  const auto u8 = [&](std::size_t i) { return static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i])); };
+  const auto word = [&](std::size_t i) { return u8(i) | u8(i + 1) << 8 | u8(i + 2) << 16 | u8(i + 3) << 24; };
+  if (word(0) != 20000630u) throw damaged("no OpenEXR magic number");
+  const std::uint32_t version = word(4);
+  const bool multipart = (version & 0x1000u) != 0;
+  const std::size_t max_name = (version & 0x400u) ? 255 : 31;
+  std::size_t at = 8;
+  auto name_at = [&](const char* what) {
+    const std::size_t end = bytes.find('\0', at);
+    if (end == std::string_view::npos || end - at > max_name)
+      throw damaged(fmt::format("the header's {} at byte {} is not a name of at most {} characters", what, at, max_name));
+    std::string name(bytes.substr(at, end - at));
+    at = end + 1;
+    return name;
+  };
+  while (true) {
+    int attributes = 0;
+    for (;; ++attributes) {
+      const std::string name = name_at("attribute name");
+      if (name.empty()) break;
+      const std::string type = name_at("attribute type");
+      if (bytes.size() - at < 4) throw damaged(fmt::format("attribute '{}' has no size", name));
+      const auto size = static_cast<std::int32_t>(word(at));
+      at += 4;
+      if (size < 0 || static_cast<std::size_t>(size) > bytes.size() - at)
+        throw damaged(fmt::format("attribute '{}' ({}) states {} bytes where the file has {} left: the header is damaged",
+                                  name, type, size, bytes.size() - at));
+      const std::string_view value = bytes.substr(at, static_cast<std::size_t>(size));
+      // OpenEXR reads a value of a known type by its type, not by the stated size: the size
+      // must be the one the type implies, or OpenEXR would go on reading from another place
+      // than this walk.
+      const std::size_t implied = implied_exr_attribute_size(type, value);
+      if (implied != kSizeFromHeader && implied != value.size())
+        throw damaged(fmt::format("attribute '{}' ({}) states {} bytes where its content takes {}: the header is damaged",
+                                  name, type, size, implied == kNotWellFormed ? std::string("more") : std::to_string(implied)));
+      at += value.size();
+    }
+    // A single-part file has one header; a multi-part file's list ends with an empty one.
+    if (!multipart || attributes == 0) return;
+  }
+}
+
+}  // namespace
+
 ExrImage read_exr(const fs::path& path, const ExrLimits& limits) {
   require_readable_file(path);
+  const std::string bytes = read_file(path);
+  check_exr_header(path, bytes);
   try {
     // OpenEXR checks the header's window and tile sizes against these before it allocates the
     // line-offset table of a damaged file (process-wide; set once, before the first open).
@@ -106,7 +235,8 @@ ExrImage read_exr(const fs::path& path, const ExrLimits& limits) {
         Imf::Header::setMaxTileSize(static_cast<int>(kMaxExrSide), static_cast<int>(kMaxExrSide));
       });
     }
-    Imf::InputFile file(path.c_str());
+    ExrMemoryStream stream(path, bytes);
+    Imf::InputFile file(stream);
     Imath::Box2i dw = file.header().dataWindow();
     // A damaged header can state any window: bound it before allocating (the largest image a
     // rig writes is a few Mpx; a window of 2^31 rows would otherwise overflow or exhaust memory).

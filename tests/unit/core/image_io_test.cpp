@@ -1,6 +1,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <utility>
@@ -85,4 +86,40 @@ TEST(ImageIo, ExrWithAHugeDataWindowIsADataErrorNotAnAllocation) {
       EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("damaged.exr"));
     }
   }
+}
+
+// An attribute whose size word is damaged is refused before OpenEXR reads it: OpenEXR sizes a
+// string attribute from that word, so a file of a few hundred bytes made it allocate and clear
+// up to 2 GB (fuzzing read_exr: 25 runs a second, 2 GB peak). The message names the attribute.
+TEST(ImageIo, ExrAttributeSizeBeyondTheFileIsADataErrorNamingTheAttribute) {
+  test::TempDir d;
+  ExrImage img;
+  img.add("Y", ImageF(4, 3, 1, 0.25f));
+  img.attributes["paintlab.angle_deg"] = "42";
+  write_exr(d / "small.exr", img);
+  const std::string bytes = read_file(d / "small.exr");
+  const std::string key("paintlab.angle_deg\0string\0", 26);
+  const std::size_t at = bytes.find(key);
+  ASSERT_NE(at, std::string::npos);
+  for (const std::int32_t size : {std::int32_t{0x7fffffff}, std::int32_t{-1}, static_cast<std::int32_t>(bytes.size())}) {
+    std::string damaged = bytes;
+    std::memcpy(damaged.data() + at + key.size(), &size, sizeof size);
+    test::write_text(d / "damaged.exr", damaged);
+    try {
+      (void)read_exr(d / "damaged.exr");
+      ADD_FAILURE() << "size " << size << " was read";
+    } catch (const DataError& e) {
+      EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("damaged.exr"));
+      EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("'paintlab.angle_deg' (string) states"));
+    }
+  }
+  // A name without its terminating zero within OpenEXR's 31 characters, and a cut file.
+  std::string unterminated = bytes;
+  std::fill(unterminated.begin() + static_cast<std::ptrdiff_t>(at),
+            unterminated.begin() + static_cast<std::ptrdiff_t>(at + key.size()), 'x');
+  test::write_text(d / "damaged.exr", unterminated);
+  EXPECT_THROW((void)read_exr(d / "damaged.exr"), DataError);
+  test::write_text(d / "damaged.exr", bytes.substr(0, at + 5));
+  EXPECT_THROW((void)read_exr(d / "damaged.exr"), DataError);
+  EXPECT_EQ(read_exr(d / "small.exr").attributes.at("paintlab.angle_deg"), "42");
 }
