@@ -9,6 +9,7 @@
 #include <regex>
 #include <span>
 
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
@@ -21,27 +22,17 @@ namespace fs = std::filesystem;
 namespace paintlab::acq {
 
 const char* to_string(Target t) {
-  switch (t) {
-    case Target::Sample:
-      return "the sample sphere";
-    case Target::WhiteReference:
-      return "the white reference sphere";
-    case Target::GlossySphere:
-      return "the glossy calibration sphere";
-  }
-  return "?";
+  static constexpr EnumNames<Target, 3> kNames{{{Target::Sample, "the sample sphere"},
+                                                {Target::WhiteReference, "the white reference sphere"},
+                                                {Target::GlossySphere, "the glossy calibration sphere"}}};
+  return enum_name(kNames, t);
 }
 
 const char* to_string(LensView v) {
-  switch (v) {
-    case LensView::Scene:
-      return "nothing in front of the lens";
-    case LensView::Capped:
-      return "the lens cap";
-    case LensView::Diffuser:
-      return "the diffuser";
-  }
-  return "?";
+  static constexpr EnumNames<LensView, 3> kNames{{{LensView::Scene, "nothing in front of the lens"},
+                                                  {LensView::Capped, "the lens cap"},
+                                                  {LensView::Diffuser, "the diffuser"}}};
+  return enum_name(kNames, v);
 }
 
 // ---- Auto exposure ----

@@ -54,7 +54,7 @@ void register_hdr_commands(CLI::App& app) {
     const fs::path out(a->out);
     if (out.extension() != ".exr") throw UsageError("--out: " + a->out + " is not an .exr file");
     acq::HdrOptions opt;
-    if (!a->weighting.empty()) opt.weighting = calib::weighting_from_string(a->weighting);
+    if (!a->weighting.empty()) opt.weighting = calib::weighting_from_string(a->weighting, "--weighting");
     opt.saturation_dn = a->saturation;
     opt.floor_dn = a->floor;
     opt.black_dn = a->black;

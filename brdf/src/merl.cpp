@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
 
@@ -77,12 +78,9 @@ Eigen::Vector3d merl_bin_centre(std::size_t flat) {
 }
 
 const char* to_string(BinState s) {
-  switch (s) {
-    case BinState::Empty: return "empty";
-    case BinState::Measured: return "measured";
-    case BinState::Filled: return "filled";
-  }
-  return "?";
+  static constexpr EnumNames<BinState, 3> kNames{
+      {{BinState::Empty, "empty"}, {BinState::Measured, "measured"}, {BinState::Filled, "filled"}}};
+  return enum_name(kNames, s);
 }
 
 MerlTable::MerlTable()

@@ -15,6 +15,7 @@
 
 #include "cv_util.h"
 #include "paintlab/calibration/cost_functions.h"
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
 
@@ -51,20 +52,15 @@ void BoardSpec::check() const {
     throw UsageError("board: square size must be > 0 mm (got " + std::to_string(square_m * 1e3) + ")");
 }
 
-const char* to_string(CornerMethod m) {
-  switch (m) {
-    case CornerMethod::SaddleFit:
-      return "saddle-fit";
-    case CornerMethod::OpenCvSubPix:
-      return "opencv-subpix";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumNames<CornerMethod, 2> kCornerMethodNames{
+    {{CornerMethod::SaddleFit, "saddle-fit"}, {CornerMethod::OpenCvSubPix, "opencv-subpix"}}};
+}  // namespace
 
-CornerMethod corner_method_from_string(const std::string& s) {
-  if (s == "saddle-fit") return CornerMethod::SaddleFit;
-  if (s == "opencv-subpix") return CornerMethod::OpenCvSubPix;
-  throw UsageError("corner method '" + s + "': expected saddle-fit or opencv-subpix");
+const char* to_string(CornerMethod m) { return enum_name(kCornerMethodNames, m); }
+
+CornerMethod corner_method_from_string(const std::string& s, std::string_view where) {
+  return enum_from_name(kCornerMethodNames, s, "corner method", where);
 }
 
 void CornerOptions::check() const {

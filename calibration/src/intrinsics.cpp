@@ -503,7 +503,7 @@ IntrinsicsResult IntrinsicsResult::from_json(const Json& j, const std::string& w
     r.board.rows = json_get<int>(b, "rows", where);
     r.board.square_m = json_get<double>(b, "square_m", where);
   }
-  if (j.contains("corner_method")) r.corner_method = corner_method_from_string(json_get<std::string>(j, "corner_method", where));
+  if (j.contains("corner_method")) r.corner_method = corner_method_from_string(json_get<std::string>(j, "corner_method", where), where + ": key 'corner_method'");
   r.bit_depth = json_get_or<int>(j, "bit_depth", 8, where);
   r.blur_sigma_px = json_get_or<double>(j, "blur_sigma_px", 0.0, where);
   r.median_corner_std_px = json_get_or<double>(j, "median_corner_std_px", 0.0, where);

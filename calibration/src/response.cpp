@@ -14,6 +14,7 @@
 #include <numeric>
 
 #include "paintlab/calibration/dark.h"
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
 
@@ -22,30 +23,22 @@ namespace paintlab::calib {
 // ---------------------------------------------------------------------------------------------
 // Names, noise, weights
 
-const char* to_string(Weighting w) {
-  switch (w) {
-    case Weighting::Robertson: return "robertson";
-    case Weighting::Hat: return "hat";
-    case Weighting::InverseVariance: return "inverse-variance";
-  }
-  return "?";
+constexpr EnumNames<Weighting, 3> kWeightingNames{{{Weighting::Robertson, "robertson"},
+                                                   {Weighting::Hat, "hat"},
+                                                   {Weighting::InverseVariance, "inverse-variance"}}};
+constexpr EnumNames<ResponseMethod, 2> kResponseMethodNames{
+    {{ResponseMethod::Robertson, "robertson"}, {ResponseMethod::Debevec, "debevec"}}};
+
+const char* to_string(Weighting w) { return enum_name(kWeightingNames, w); }
+
+Weighting weighting_from_string(const std::string& s, std::string_view where) {
+  return enum_from_name(kWeightingNames, s, "weighting", where);
 }
 
-Weighting weighting_from_string(const std::string& s) {
-  if (s == "robertson") return Weighting::Robertson;
-  if (s == "hat") return Weighting::Hat;
-  if (s == "inverse-variance") return Weighting::InverseVariance;
-  throw DataError("weighting '" + s + "' is not one of robertson, hat, inverse-variance");
-}
+const char* to_string(ResponseMethod m) { return enum_name(kResponseMethodNames, m); }
 
-const char* to_string(ResponseMethod m) {
-  return m == ResponseMethod::Robertson ? "robertson" : "debevec";
-}
-
-ResponseMethod response_method_from_string(const std::string& s) {
-  if (s == "robertson") return ResponseMethod::Robertson;
-  if (s == "debevec") return ResponseMethod::Debevec;
-  throw DataError("response method '" + s + "' is not one of robertson, debevec");
+ResponseMethod response_method_from_string(const std::string& s, std::string_view where) {
+  return enum_from_name(kResponseMethodNames, s, "response method", where);
 }
 
 double NoiseModel::variance_dn2(double u) const {
@@ -190,8 +183,8 @@ Json ResponseCurve::to_json() const {
 ResponseCurve ResponseCurve::from_json(const Json& j, const std::string& where) {
   ResponseCurve r;
   if (j.contains("provenance")) r.provenance = Provenance::from_json(j.at("provenance"), where);
-  r.method = response_method_from_string(json_get<std::string>(j, "method", where));
-  r.weighting = weighting_from_string(json_get<std::string>(j, "weighting", where));
+  r.method = response_method_from_string(json_get<std::string>(j, "method", where), where + ": key 'method'");
+  r.weighting = weighting_from_string(json_get<std::string>(j, "weighting", where), where + ": key 'weighting'");
   r.bit_depth = json_get<int>(j, "bit_depth", where);
   r.channels = json_get<int>(j, "channels", where);
   r.window.black_dn = json_get<double>(j, "black_dn", where);

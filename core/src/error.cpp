@@ -1,5 +1,7 @@
 #include "paintlab/core/error.h"
 
+#include "paintlab/core/enum_names.h"
+
 #include <cerrno>
 #include <cstring>
 
@@ -54,16 +56,14 @@ int exit_code(const Error& e) noexcept {
 }
 
 const char* to_string(ErrorKind kind) noexcept {
-  switch (kind) {
-    case ErrorKind::Usage: return "usage";
-    case ErrorKind::Config: return "config";
-    case ErrorKind::Data: return "data";
-    case ErrorKind::Io: return "io";
-    case ErrorKind::Device: return "device";
-    case ErrorKind::Calibration: return "calibration";
-    case ErrorKind::Job: return "job";
-  }
-  return "error";
+  static constexpr EnumNames<ErrorKind, 7> kNames{{{ErrorKind::Usage, "usage"},
+                                                   {ErrorKind::Config, "config"},
+                                                   {ErrorKind::Data, "data"},
+                                                   {ErrorKind::Io, "io"},
+                                                   {ErrorKind::Device, "device"},
+                                                   {ErrorKind::Calibration, "calibration"},
+                                                   {ErrorKind::Job, "job"}}};
+  return enum_name(kNames, kind, "error");
 }
 
 }  // namespace paintlab

@@ -1,23 +1,19 @@
 #include "paintlab/devices/camera.h"
 
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 
 namespace paintlab::dev {
 
-const char* to_string(PixelFormat f) {
-  switch (f) {
-    case PixelFormat::Mono8: return "Mono8";
-    case PixelFormat::Mono12: return "Mono12";
-    case PixelFormat::Mono16: return "Mono16";
-  }
-  return "Mono16";
-}
+namespace {
+constexpr EnumNames<PixelFormat, 3> kPixelFormatNames{
+    {{PixelFormat::Mono8, "Mono8"}, {PixelFormat::Mono12, "Mono12"}, {PixelFormat::Mono16, "Mono16"}}};
+}  // namespace
+
+const char* to_string(PixelFormat f) { return enum_name(kPixelFormatNames, f, "Mono16"); }
 
 PixelFormat pixel_format_from_string(const std::string& s) {
-  if (s == "Mono8") return PixelFormat::Mono8;
-  if (s == "Mono12") return PixelFormat::Mono12;
-  if (s == "Mono16") return PixelFormat::Mono16;
-  throw DataError("unknown pixel format '" + s + "' (supported: Mono8, Mono12, Mono16)");
+  return enum_from_name(kPixelFormatNames, s, "pixel format");
 }
 
 int bit_depth(PixelFormat f) {

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "bin_index.h"
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 
 namespace paintlab::fit {
@@ -125,18 +126,15 @@ void SampleBatch::check_consistent() const {
 // ---------------------------------------------------------------------------------------
 // Options
 
-const char* to_string(BinEstimator e) {
-  switch (e) {
-    case BinEstimator::Mean: return "mean";
-    case BinEstimator::MedianOfMeans: return "median-of-means";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumNames<BinEstimator, 2> kEstimatorNames{
+    {{BinEstimator::Mean, "mean"}, {BinEstimator::MedianOfMeans, "median-of-means"}}};
+}  // namespace
+
+const char* to_string(BinEstimator e) { return enum_name(kEstimatorNames, e); }
 
 BinEstimator bin_estimator_from_string(std::string_view s, std::string_view where) {
-  if (s == "mean") return BinEstimator::Mean;
-  if (s == "median-of-means") return BinEstimator::MedianOfMeans;
-  throw DataError(fmt::format("{}: unknown bin estimator '{}' (expected mean or median-of-means)", where, s));
+  return enum_from_name(kEstimatorNames, s, "bin estimator", where);
 }
 
 void BinningOptions::check() const {

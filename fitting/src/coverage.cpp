@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "paintlab/brdf/rusinkiewicz.h"
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
 #include "paintlab/core/image_io.h"
@@ -15,12 +16,9 @@ using brdf::kMerlThetaD;
 using brdf::kMerlThetaH;
 
 const char* to_string(Region r) {
-  switch (r) {
-    case Region::Peak: return "peak";
-    case Region::Glossy: return "glossy";
-    case Region::Diffuse: return "diffuse";
-  }
-  return "?";
+  static constexpr EnumNames<Region, 3> kNames{
+      {{Region::Peak, "peak"}, {Region::Glossy, "glossy"}, {Region::Diffuse, "diffuse"}}};
+  return enum_name(kNames, r);
 }
 
 Region region_of_theta_h(double theta_h) {

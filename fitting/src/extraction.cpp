@@ -13,6 +13,7 @@
 #include "paintlab/brdf/rusinkiewicz.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/sphere.h"
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
 #include "paintlab/core/log.h"
@@ -31,18 +32,14 @@ void ExtractionOptions::check() const {
   if (images_in_flight < 0) fail("images_in_flight", images_in_flight, ">= 0");
 }
 
-const char* to_string(VarianceModel v) {
-  switch (v) {
-    case VarianceModel::Local: return "local";
-    case VarianceModel::Hdr: return "hdr";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumNames<VarianceModel, 2> kVarianceNames{{{VarianceModel::Hdr, "hdr"}, {VarianceModel::Local, "local"}}};
+}  // namespace
+
+const char* to_string(VarianceModel v) { return enum_name(kVarianceNames, v); }
 
 VarianceModel variance_model_from_string(std::string_view s, std::string_view where) {
-  if (s == "hdr") return VarianceModel::Hdr;
-  if (s == "local") return VarianceModel::Local;
-  throw DataError(fmt::format("{}: unknown variance model '{}' (expected hdr or local)", where, s));
+  return enum_from_name(kVarianceNames, s, "variance model", where);
 }
 
 void ExtractionStats::add(const ExtractionStats& o) {

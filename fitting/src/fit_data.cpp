@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "fit_util.h"
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
 
@@ -118,27 +119,21 @@ void FitDataOptions::check() const {
     throw OptionError("FitDataOptions::window_phi_d", std::to_string(window_phi_d), "1..90");
 }
 
-const char* to_string(FitResiduals r) {
-  switch (r) {
-    case FitResiduals::Log: return "log";
-    case FitResiduals::Linear: return "linear";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumNames<FitResiduals, 2> kResidualNames{{{FitResiduals::Log, "log"}, {FitResiduals::Linear, "linear"}}};
+}  // namespace
+
+const char* to_string(FitResiduals r) { return enum_name(kResidualNames, r); }
 
 FitResiduals fit_residuals_from_string(std::string_view s, std::string_view where) {
-  if (s == "log") return FitResiduals::Log;
-  if (s == "linear") return FitResiduals::Linear;
-  throw DataError(fmt::format("{}: unknown residual form '{}' (expected log or linear)", where, s));
+  return enum_from_name(kResidualNames, s, "residual form", where);
 }
 
 const char* to_string(NoiseSource s) {
-  switch (s) {
-    case NoiseSource::None: return "none";
-    case NoiseSource::SampleSpread: return "sample-spread";
-    case NoiseSource::SampleNoise: return "sample-noise";
-  }
-  return "?";
+  static constexpr EnumNames<NoiseSource, 3> kNames{{{NoiseSource::None, "none"},
+                                                     {NoiseSource::SampleSpread, "sample-spread"},
+                                                     {NoiseSource::SampleNoise, "sample-noise"}}};
+  return enum_name(kNames, s);
 }
 
 FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& options,

@@ -4,23 +4,21 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/coverage.h"
 
 namespace paintlab::fit {
 
-const char* to_string(FitModel m) {
-  switch (m) {
-    case FitModel::CookTorrance: return "cook-torrance";
-    case FitModel::AxfCarPaint: return "axf-carpaint";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumNames<FitModel, 2> kModelNames{
+    {{FitModel::CookTorrance, "cook-torrance"}, {FitModel::AxfCarPaint, "axf-carpaint"}}};
+}  // namespace
+
+const char* to_string(FitModel m) { return enum_name(kModelNames, m); }
 
 FitModel fit_model_from_string(std::string_view s, std::string_view where) {
-  if (s == "cook-torrance") return FitModel::CookTorrance;
-  if (s == "axf-carpaint") return FitModel::AxfCarPaint;
-  throw DataError(fmt::format("{}: unknown model '{}' (expected cook-torrance or axf-carpaint)", where, s));
+  return enum_from_name(kModelNames, s, "model", where);
 }
 
 void FitRequest::set_shared(const SharedFitOptions& s) {

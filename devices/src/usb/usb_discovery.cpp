@@ -4,17 +4,15 @@
 
 #include <fmt/format.h>
 
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 
 namespace paintlab::dev {
 
 const char* to_string(UsbKind k) {
-  switch (k) {
-    case UsbKind::Usb3Vision: return "usb3-vision";
-    case UsbKind::UsbSerial: return "usb-serial";
-    case UsbKind::Other: return "other";
-  }
-  return "other";
+  static constexpr EnumNames<UsbKind, 3> kNames{
+      {{UsbKind::Usb3Vision, "usb3-vision"}, {UsbKind::UsbSerial, "usb-serial"}, {UsbKind::Other, "other"}}};
+  return enum_name(kNames, k, "other");
 }
 
 std::string UsbDeviceInfo::vid_pid() const { return fmt::format("{:04x}:{:04x}", vendor_id, product_id); }

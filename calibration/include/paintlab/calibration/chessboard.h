@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "paintlab/core/geometry.h"
@@ -41,7 +42,7 @@ enum class CornerMethod {
   OpenCvSubPix,  // cv::cornerSubPix only (OpenCV's own procedure, for comparison)
 };
 const char* to_string(CornerMethod m);
-CornerMethod corner_method_from_string(const std::string& s);  // UsageError naming the value
+CornerMethod corner_method_from_string(const std::string& s, std::string_view where = {});  // DataError naming the value
 
 struct CornerOptions {
   CornerMethod method = CornerMethod::SaddleFit;

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "paintlab/calibration/exposure_stack.h"
@@ -35,11 +36,11 @@ enum class Weighting {
   InverseVariance,
 };
 const char* to_string(Weighting w);
-Weighting weighting_from_string(const std::string& s);  // DataError naming the value
+Weighting weighting_from_string(const std::string& s, std::string_view where = {});  // DataError naming the value
 
 enum class ResponseMethod { Robertson, Debevec };
 const char* to_string(ResponseMethod m);
-ResponseMethod response_method_from_string(const std::string& s);
+ResponseMethod response_method_from_string(const std::string& s, std::string_view where = {});
 
 // Temporal noise of one dark-subtracted raw value u, in DN^2: read + shot.
 struct NoiseModel {
