@@ -259,6 +259,10 @@ struct HdrMerger::Impl {
   }
 };
 
+HdrCalibration HdrCalibration::of(const calib::RigCalibration& rig) {
+  return {rig.response(), rig.dark(), rig.flat()};
+}
+
 HdrMerger::HdrMerger(const HdrCalibration& calibration, const HdrOptions& options, int width, int height,
                      int channels, int bit_depth)
     : impl_(std::make_unique<Impl>()) {

@@ -162,12 +162,7 @@ class SimStage final : public acq::Stage {
 }  // namespace
 
 acq::HdrCalibration load_radiometry(const RigConfig& rig) {
-  acq::HdrCalibration h;
-  const fs::path dir = rig.calibration_dir;
-  if (fs::exists(dir / calib::kResponseFile)) h.response = calib::ResponseCurve::load(dir / calib::kResponseFile);
-  if (fs::exists(dir / calib::kDarkFile)) h.dark = calib::DarkFrame::load(dir / calib::kDarkFile);
-  if (fs::exists(dir / calib::kFlatFile)) h.flat = calib::FlatField::load(dir / calib::kFlatFile);
-  return h;
+  return acq::HdrCalibration::of(calib::RigCalibration::load(rig));
 }
 
 std::shared_ptr<CalibrationRunners> make_calibration_runners() { return std::make_shared<CalibrationRunners>(); }
@@ -210,9 +205,19 @@ CalibSession open_calib_session(const RigConfig& rig, double albedo) {
   return s;
 }
 
-Shot capture_shot(CalibSession& s, const std::string& step, const std::string& name, std::optional<double> angle_deg,
-                  bool led_on, double fill, double quantile, std::optional<double> exposure_s) {
-  return s.shots->capture({step, name, angle_deg, led_on, fill, quantile, exposure_s}, s.linearizer);
+acq::CalibrationRig CalibSession::capture_rig() {
+  acq::CalibrationRig r;
+  r.camera = devices->camera.get();
+  r.light = devices->light.get();
+  r.table = devices->turntable.get();
+  r.clock = devices->clock;
+  r.stage = stage.get();
+  r.shots = shots.get();
+  r.linearizer = &linearizer;
+  r.gain_db = rig.plan.gain_db;
+  r.exposures_s = rig.plan.exposures_s;
+  r.settle_s = rig.plan.settle_s;
+  return r;
 }
 
 }  // namespace paintlab::app

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "paintlab/acquisition/calibration_capture.h"
 #include "paintlab/acquisition/capture.h"
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/calibration/chessboard.h"
@@ -36,6 +37,9 @@ struct CalibSession {
   int bit_depth = 16;
 
   dev::Camera& camera() { return *devices->camera; }
+  // The devices, the stage, the shot capture and the linearizer as the calibration steps
+  // capture through them (acq::capture_* in calibration_capture.h).
+  acq::CalibrationRig capture_rig();
 };
 
 // Opens the rig's devices (simulated peers for kind "sim") and the stage that goes with
@@ -43,13 +47,6 @@ struct CalibSession {
 CalibSession open_calib_session(const RigConfig& rig, double albedo);
 // Loads response/dark/flat that exist (for files given with --images, no devices).
 acq::HdrCalibration load_radiometry(const RigConfig& rig);
-
-// acq::ShotCapture::capture through the session's devices and linearizer: moves the table,
-// switches the LED, finds an exposure that puts the `quantile` pixel at `fill` of the range
-// (or uses `exposure_s` as it is), captures, linearises and saves the frame under
-// calib/captures/<step>/<name>.png.
-Shot capture_shot(CalibSession& s, const std::string& step, const std::string& name, std::optional<double> angle_deg,
-                  bool led_on, double fill, double quantile, std::optional<double> exposure_s = std::nullopt);
 
 // Device identities recorded in provenance: {"camera": serial, "turntable": id, "light": id}
 // (turntable and light: kind and address, left out for simulated peers).

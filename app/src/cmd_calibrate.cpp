@@ -97,10 +97,8 @@ std::vector<Shot> step_images(CalibrateContext& c, const std::string& step, cons
     return shots;
   }
   if (!c.session) throw UsageError("calibrate " + step + ": give --images or --capture");
-  c.session->stage->mount(target);
-  for (double a : angles)
-    shots.push_back(capture_shot(*c.session, step, fmt::format("{}_angle{:g}", step, a), a, led_on, fill, quantile));
-  return shots;
+  acq::CalibrationRig rig = c.session->capture_rig();
+  return acq::capture_shots(rig, step, angles, target, led_on, fill, quantile);
 }
 
 // The calibration files the steps `steps` write into the rig's calibration folder (and the
@@ -158,7 +156,7 @@ struct IntrinsicsArgs {
 void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig) {
   const calib::BoardSpec board = calib::BoardSpec::parse(a.board, a.square_mm);
   calib::IntrinsicsOptions o;
-  o.corners.method = calib::corner_method_from_string(a.corner_method);
+  o.corners.method = calib::corner_method_from_string(a.corner_method, "--corner-method");
   if (a.fix_k3 && a.free_k3) throw UsageError("calibrate intrinsics: give --fix-k3 or --free-k3, not both");
   o.fix_k3 = a.fix_k3;
   o.auto_fix_k3 = !a.fix_k3 && !a.free_k3;
@@ -177,13 +175,10 @@ void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig)
   } else {
     if (!c.session) throw UsageError("calibrate intrinsics: give --images or --capture");
     if (a.views < 3) throw UsageError("--views must be >= 3");
-    for (int k = 0; k < a.views; ++k) {
-      c.session->stage->show_board(k, a.views, board);
-      Shot s = capture_shot(*c.session, "intrinsics", fmt::format("view{:02d}", k), std::nullopt, false, 0.6, 0.99);
-      images.push_back({s.name, s.raw, s.bit_depth});
-      inputs.push_back(s.file);
-    }
-    c.session->stage->mount(Target::Sample);
+    acq::CalibrationRig rig = c.session->capture_rig();
+    acq::BoardViews views = acq::capture_board_views(rig, board, a.views);
+    images = std::move(views.images);
+    inputs = std::move(views.files);
   }
   if (have_rig) {
     const auto& g = c.rig.geometry;
@@ -232,16 +227,7 @@ void run_light(CalibrateContext& c, const std::vector<std::string>& files, const
   std::vector<Shot> shots =
       step_images(c, "light", files, parse_angles(angles, "--angles"), Target::GlossySphere, true, 0.8, 1.0);
   std::vector<calib::HighlightImage> images;
-  for (const auto& s : shots) {
-    if (!s.table_angle_deg)
-      throw UsageError("calibrate light: " + s.file.string() + ": the table angle is not in the file name (e.g. light_angle-30.png)");
-    // Clipped pixels become +inf, and saturated_at = +inf leaves them out of the lobe fit.
-    calib::HighlightImage h{*s.table_angle_deg, s.name, s.rate};
-    for (std::size_t i = 0; i < s.saturated.size(); ++i)
-      if (s.saturated.values()[i]) h.pixels.values()[i] = std::numeric_limits<float>::infinity();
-    h.saturated_at = std::numeric_limits<double>::infinity();
-    images.push_back(std::move(h));
-  }
+  for (const auto& s : shots) images.push_back(acq::highlight_image(s, "calibrate light"));
   calib::LightCalibration l = calib::calibrate_light(images, cal.camera(), *cal.sphere(), c.rig.geometry);
   l.provenance = calib::Provenance::make("light", inputs_of(shots), provenance_devices(c));
   const fs::path out = out_file(c.rig, calib::kLightFile);
@@ -270,13 +256,7 @@ void run_scale(CalibrateContext& c, const std::vector<std::string>& files, const
   std::vector<Shot> shots =
       step_images(c, "scale", files, parse_angles(angles, "--angles"), Target::WhiteReference, true, 0.7, 0.9999);
   std::vector<calib::ReferenceImage> images;
-  for (const auto& s : shots) {
-    if (!s.table_angle_deg)
-      throw UsageError("calibrate scale: " + s.file.string() + ": the table angle is not in the file name (e.g. scale_angle0_exp20ms.png)");
-    if (!s.per_second)
-      throw UsageError("calibrate scale: " + s.file.string() + ": the exposure is not in the file name (e.g. _exp20ms)");
-    images.push_back({*s.table_angle_deg, s.name, s.rate, s.saturated});
-  }
+  for (const auto& s : shots) images.push_back(acq::reference_image(s, "calibrate scale"));
   calib::ScaleOptions o;
   o.albedo = albedo;
   // The LED profile changes the irradiance by ~0.3 % across the sphere, as much as the lens

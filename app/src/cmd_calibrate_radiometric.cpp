@@ -37,19 +37,6 @@ namespace paintlab::app {
 
 namespace {
 
-// The exposure at which the brightest pixels (the 99.9 % quantile) of what the camera sees
-// sit at `fill` of the range above `black` (auto exposure with a 10 % tolerance).
-double find_exposure(CalibSession& s, double gain_db, double black, double fill, double start_s) {
-  value_or_throw(s.camera().set_gain_db(gain_db));
-  acq::AutoExposureOptions o;
-  o.fill = fill;
-  o.quantile = 0.999;
-  o.black_dn = black;
-  o.tolerance = 0.1;
-  o.start_s = start_s;
-  return acq::auto_expose(s.camera(), o).exposure_s;
-}
-
 struct Common {
   StackInput input;
   std::string rig;
@@ -143,12 +130,8 @@ void run_dark(const DarkArgs& a, const StepRun& run) {
   calib::ExposureStack stack;
   if (run.capturing(a)) {
     if (a.frames < 2) throw UsageError("calibrate dark: --frames must be >= 2 (read noise needs repeated frames)");
-    CalibSession& s = *run.context->session;
-    const auto& t = run.context->rig.plan.exposures_s;
-    s.stage->cover_lens(acq::LensView::Capped);
-    stack = acq::capture_stack(s.camera(), *s.devices->light, run.context->rig.plan.gain_db, {t.front(), t.back()},
-                               a.frames, false, run.capture_dir());
-    s.stage->cover_lens(acq::LensView::Scene);
+    acq::CalibrationRig rig = run.context->session->capture_rig();
+    stack = acq::capture_dark_stack(rig, a.frames, run.capture_dir());
   } else {
     stack = run.files(a);
   }
@@ -168,10 +151,6 @@ void run_dark(const DarkArgs& a, const StepRun& run) {
 
 // --- response --------------------------------------------------------------------------
 
-// With --capture: the exposure at which the brightest pixels of the white reference reach
-// this share of the range anchors the bracket.
-constexpr double kResponseTopFill = 0.7;
-
 struct ResponseArgs : Common {
   std::string method = "robertson";
   std::string dark;
@@ -187,7 +166,7 @@ struct ResponseArgs : Common {
 
 void run_response(const ResponseArgs& a, const StepRun& run) {
   calib::ResponseOptions opt;
-  opt.method = calib::response_method_from_string(a.method);
+  opt.method = calib::response_method_from_string(a.method, "--method");
   opt.black_dn = a.black;
   opt.saturation_dn = a.saturation;
   opt.floor_dn = a.floor;
@@ -204,39 +183,18 @@ void run_response(const ResponseArgs& a, const StepRun& run) {
   calib::ExposureStack stack;
   if (run.capturing(a)) {
     if (a.count < 3) throw UsageError("calibrate response: --count must be >= 3");
-    // The white reference lit from the side: values from saturation down to the black level
-    // in every exposure of a bracket with unequal steps.
-    CalibSession& s = *run.context->session;
-    const RigConfig& rig = run.context->rig;
-    s.stage->mount(Target::WhiteReference);
-    if (s.devices->turntable) {
-      value_or_throw(s.devices->turntable->move_to(wrap_360(a.angle_deg)));
-      value_or_throw(s.devices->turntable->wait_settled(120.0));
-      if (rig.plan.settle_s > 0) s.devices->clock->sleep_s(rig.plan.settle_s);
-    }
-    // The bracket follows the scene, not the measuring plan: from where the brightest pixels
-    // sit at ~2 % of the range (data for the toe) to where most of the lit side saturates
-    // (data up to the shoulder), 256x in all.
-    value_or_throw(s.devices->light->on());
-    const double black = dark ? dark->mean_bias_dn : a.black;
-    const double t_top = find_exposure(s, rig.plan.gain_db, black, kResponseTopFill, rig.plan.exposures_s.back());
-    const dev::ExposureRange range = value_or_throw(s.devices->camera->exposure_range());
-    const double t_min = std::max(range.min_s, t_top / 32.0), t_max = std::min(range.max_s, t_top * 8.0);
-    if (!(t_max > 4.0 * t_min))
-      throw CalibrationError(fmt::format(
-          "calibrate response: the camera's exposure range ({:.3g}..{:.3g} s) leaves no bracket around {:.3g} s, "
-          "where the brightest pixels of the white reference reach {:.0f} % of the range",
-          range.min_s, range.max_s, t_top, 100.0 * kResponseTopFill));
+    acq::CalibrationRig rig = run.context->session->capture_rig();
+    acq::ResponseCapture r = acq::capture_response_stack(rig, a.angle_deg, dark ? dark->mean_bias_dn : a.black,
+                                                         a.count, run.capture_dir());
     say(fmt::format("response: white reference at {:.3g} ms (brightest pixels at {:.0f} % of the range); bracket "
                     "{:.3g}..{:.3g} ms, {} exposures",
-                    1e3 * t_top, 100.0 * kResponseTopFill, 1e3 * t_min, 1e3 * t_max, a.count));
-    stack = acq::capture_stack(s.camera(), *s.devices->light, rig.plan.gain_db,
-                               calibration_bracket(t_min, t_max, a.count), 1, true, run.capture_dir());
+                    1e3 * r.top_s, 100.0 * acq::kResponseTopFill, 1e3 * r.min_s, 1e3 * r.max_s, a.count));
+    stack = std::move(r.stack);
   } else {
     stack = run.files(a);
   }
   double ratio = 0.0;
-  if (constant_ratio(stack.exposures_s, &ratio))
+  if (acq::constant_ratio(stack.exposures_s, &ratio))
     spdlog::warn("the exposures step by one ratio (x{:.3g}): the data then fix the curve only up to a periodic "
                  "ripple and the smoothness prior decides; a bracket with unequal steps is better "
                  "(docs/radiometry.md)",
@@ -285,15 +243,9 @@ void run_flat(const FlatArgs& a, const StepRun& run) {
   calib::ExposureStack stack;
   if (run.capturing(a)) {
     if (a.frames < 1) throw UsageError("calibrate flat: --frames must be >= 1");
-    CalibSession& s = *run.context->session;
-    const double gain_db = run.context->rig.plan.gain_db;
-    s.stage->cover_lens(acq::LensView::Diffuser);
-    value_or_throw(s.devices->light->off());
-    // The brightest pixels at 60 % of the range: well clear of saturation, far above the noise.
+    acq::CalibrationRig rig = run.context->session->capture_rig();
     const double black = dark ? dark->mean_bias_dn : resp ? resp->window.black_dn : 0.0;
-    const double t = find_exposure(s, gain_db, black, 0.6, 0.01);
-    stack = acq::capture_stack(s.camera(), *s.devices->light, gain_db, {t}, a.frames, false, run.capture_dir());
-    s.stage->cover_lens(acq::LensView::Scene);
+    stack = acq::capture_flat_stack(rig, black, a.frames, run.capture_dir());
   } else {
     stack = run.files(a);
   }

@@ -29,31 +29,6 @@ struct CheckArgs {
   bool json = false;
 };
 
-// A live step that could not produce its evidence becomes a failed check of its own.
-calib::CheckItem failed_item(const std::string& id, const std::string& what, const std::string& detail,
-                             const std::string& action) {
-  calib::CheckItem i;
-  i.id = id;
-  i.what = what;
-  i.limit = calib::Limit::Required;
-  i.pass = false;
-  i.detail = detail;
-  i.action = action;
-  return i;
-}
-
-double saturated_on_sphere(const Shot& s, const calib::CameraModel& cam, const calib::SphereFit& sphere) {
-  if (s.saturated.empty()) return 0.0;
-  long long n = 0, sat = 0;
-  for (int y = 0; y < s.saturated.height(); ++y)
-    for (int x = 0; x < s.saturated.width(); ++x) {
-      if (!calib::intersect_sphere(cam.ray(Vec2(x, y)), sphere.centre_cam_m, sphere.radius_m)) continue;
-      ++n;
-      sat += s.saturated.at(x, y);
-    }
-  return n ? static_cast<double>(sat) / static_cast<double>(n) : 0.0;
-}
-
 }  // namespace
 
 void register_check_commands(CLI::App& app) {
@@ -84,95 +59,20 @@ void register_check_commands(CLI::App& app) {
       guard.output(report).check();
     }
     const calib::RigCalibration cal = calib::RigCalibration::load(rig);
-    calib::LiveEvidence live;
-    std::vector<calib::CheckItem> extra;
-    const bool geometry = cal.intrinsics() && cal.sphere();
-    const calib::SphereOptions sphere_opt = [&] {
-      calib::SphereOptions o;
-      o.radius_m = rig.geometry.sphere_radius_m;
-      return o;
-    }();
-
-    auto fit_live_sphere = [&](const std::vector<Shot>& shots) {
-      std::vector<calib::SphereImage> im;
-      for (const auto& s : shots) im.push_back({s.name, s.rate});
-      try {
-        live.sphere = calib::fit_sphere(im, cal.camera(), sphere_opt);
-      } catch (const CalibrationError& e) {
-        extra.push_back(failed_item("sphere.live", "sphere silhouette now", e.what(),
-                                    "the sphere is missing, unlit or out of view: mount it and check the LED"));
-      }
-    };
-    auto find_live_highlights = [&](const std::vector<Shot>& shots) {
-      for (const auto& s : shots) {
-        if (!s.table_angle_deg) throw UsageError("check: " + s.file.string() + ": no table angle in the file name");
-        calib::HighlightImage h{*s.table_angle_deg, s.name, s.rate};
-        for (std::size_t i = 0; i < s.saturated.size(); ++i)
-          if (s.saturated.values()[i]) h.pixels.values()[i] = std::numeric_limits<float>::infinity();
-        h.saturated_at = std::numeric_limits<double>::infinity();
-        // The blur light.json's highlights were fitted with (from the highlights themselves).
-        calib::LightOptions lo;
-        if (cal.light() && cal.light()->blur_source == "highlights") lo.blur_sigma_px = cal.light()->blur_sigma_px;
-        live.highlights.push_back(calib::find_highlight(h, cal.camera(), *cal.sphere(), rig.geometry, lo));
-      }
-    };
-
+    acq::LiveCheck live;
     std::unique_ptr<CalibSession> session;
     if (a->capture) {
       session = std::make_unique<CalibSession>(open_calib_session(rig, 0.0));
-      live.devices = session->serials;
-      if (!geometry) {
-        extra.push_back(failed_item("live", "live checks", "camera.json and sphere.json are needed first",
-                                    "run `paintlab calibrate all --rig " + a->rig + "`"));
-      } else {
-        CalibSession& s = *session;
-        s.stage->mount(Target::WhiteReference);
-        Shot first = capture_shot(s, "check", "drift_start", 0.0, true, 0.7, 0.9999);
-        live.reference_saturated_frac = saturated_on_sphere(first, cal.camera(), *cal.sphere());
-        std::vector<Shot> side;
-        for (double angle : {90.0, 270.0})
-          side.push_back(capture_shot(s, "check", fmt::format("sphere_angle{:g}", angle), angle, true, 0.7, 0.999));
-        fit_live_sphere(side);
-        if (cal.light()) {
-          s.stage->mount(Target::GlossySphere);
-          std::vector<Shot> hl;
-          for (double angle : {-60.0, 0.0, 60.0})
-            hl.push_back(capture_shot(s, "check", fmt::format("light_angle{:g}", angle), angle, true, 0.8, 1.0));
-          find_live_highlights(hl);
-          s.stage->mount(Target::WhiteReference);
-        }
-        Shot last = capture_shot(s, "check", "drift_end", 0.0, true, 0.7, 0.9999, first.exposure_s);
-        live.drift_rel = calib::intensity_drift_rel({first.rate, last.rate}, cal.camera(), *cal.sphere());
-        s.stage->mount(Target::Sample);
-      }
+      acq::CalibrationRig capture = session->capture_rig();
+      live = acq::capture_live_check(capture, cal, rig);
+      live.evidence.devices = session->serials;
     } else if (!a->images.empty()) {
-      const fs::path dir = a->images;
-      if (!geometry)
-        throw CalibrationError("check --images: camera.json and sphere.json are needed to read the live images");
       acq::Linearizer linearizer(load_radiometry(rig));
-      auto shots_in = [&](const char* sub) {
-        std::vector<Shot> v;
-        if (fs::is_directory(dir / sub))
-          for (const auto& p : expand_input_files({(dir / sub).string()}, "--images", kCalibrationImageExtensions))
-            v.push_back(acq::load_shot(p, linearizer));
-        return v;
-      };
-      if (auto v = shots_in("sphere"); !v.empty()) fit_live_sphere(v);
-      if (auto v = shots_in("light"); !v.empty() && cal.light()) find_live_highlights(v);
-      if (auto v = shots_in("drift"); v.size() >= 2) {
-        std::vector<ImageF> rates;
-        for (const auto& s : v) rates.push_back(s.rate);
-        live.drift_rel = calib::intensity_drift_rel(rates, cal.camera(), *cal.sphere());
-      }
-      if (auto v = shots_in("reference"); !v.empty()) {
-        double worst = 0;
-        for (const auto& s : v) worst = std::max(worst, saturated_on_sphere(s, cal.camera(), *cal.sphere()));
-        live.reference_saturated_frac = worst;
-      }
+      live = acq::live_check_from_images(a->images, cal, rig, linearizer);
     }
 
-    calib::CheckReport report = calib::run_checks(rig, cal, live);
-    report.items.insert(report.items.end(), extra.begin(), extra.end());
+    calib::CheckReport report = calib::run_checks(rig, cal, live.evidence);
+    report.items.insert(report.items.end(), live.failed.begin(), live.failed.end());
     fs::create_directories(rig.calibration_dir);
     report.save(rig.calibration_dir / calib::kCheckFile);
     if (a->json)

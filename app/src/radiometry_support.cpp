@@ -40,28 +40,4 @@ calib::ExposureStack load_stack_input(const StackInput& in) {
   return calib::load_exposure_stack(files, times, in.bit_depth);
 }
 
-std::vector<double> calibration_bracket(double min_s, double max_s, int count) {
-  if (!(min_s > 0.0) || !(max_s > min_s) || count < 3)
-    throw UsageError(fmt::format("calibration bracket: need 0 < min < max and >= 3 exposures (got {} s, {} s, {})",
-                                 min_s, max_s, count));
-  std::vector<double> t(static_cast<std::size_t>(count));
-  const double span = std::log(max_s / min_s);
-  const double jitter[3] = {0.0, 0.3, -0.3};  // fractions of a step: ratios differ step to step
-  for (int i = 0; i < count; ++i) {
-    double x = (i + (i == 0 || i == count - 1 ? 0.0 : jitter[i % 3])) / (count - 1);
-    t[static_cast<std::size_t>(i)] = min_s * std::exp(span * std::clamp(x, 0.0, 1.0));
-  }
-  return t;
-}
-
-bool constant_ratio(std::vector<double> t, double* ratio) {
-  std::sort(t.begin(), t.end());
-  if (t.size() < 3) return false;
-  const double r0 = t[1] / t[0];
-  for (std::size_t i = 2; i < t.size(); ++i)
-    if (std::abs(t[i] / t[i - 1] / r0 - 1.0) > 0.02) return false;
-  if (ratio) *ratio = r0;
-  return true;
-}
-
 }  // namespace paintlab::app

@@ -28,11 +28,4 @@ void add_stack_options(CLI::App* cmd, StackInput* in);
 // IoError/DataError naming the unreadable or inconsistent file.
 calib::ExposureStack load_stack_input(const StackInput& in);
 
-// Exposure times from min to max whose successive ratios are not all equal (a geometric
-// bracket times 1, 1.37, 1.71, 1, ...): a constant ratio leaves the response ambiguous.
-std::vector<double> calibration_bracket(double min_s, double max_s, int count);
-
-// True (and the ratio) when the sorted exposures step by one ratio within 2 %.
-bool constant_ratio(std::vector<double> exposures_s, double* ratio);
-
 }  // namespace paintlab::app

@@ -228,43 +228,25 @@ CheckReport run_checks(const RigConfig& rig, const RigCalibration& cal, const Li
     add(item("intrinsics.views", "chessboard views used", Limit::AtLeast, in.views_used, tol.min_views, "",
              "take more chessboard views (see camera.json for the dropped ones and why)"));
   }
-  auto json_number = [](const Json& j, std::initializer_list<const char*> path) {
-    const Json* p = &j;
-    for (const char* k : path) {
-      if (!p->is_object() || !p->contains(k)) return std::numeric_limits<double>::quiet_NaN();
-      p = &p->at(k);
-    }
-    return p->is_number() ? p->get<double>() : std::numeric_limits<double>::quiet_NaN();
-  };
-  if (cal.has(kResponseFile)) {
-    const Json& j = cal.files().at(kResponseFile).json;
+  if (cal.response()) {
     CheckItem i = item("response.linearity", "response linearity error after linearisation", Limit::AtMost,
-                       json_number(j, {"fit", "linearity_error_rel"}), tol.response_error_rel, "",
+                       cal.response()->report.linearity_error_rel, tol.response_error_rel, "",
                        "redo the exposure stack (static scene, no flicker, exposures spanning the range) and run "
                        "`paintlab calibrate response`");
-    if (!std::isfinite(i.value)) i.detail = "response.json has no fit.linearity_error_rel";
     add(i);
   }
-  if (cal.has(kDarkFile)) {
-    const Json& j = cal.files().at(kDarkFile).json;
-    CheckItem hot = item("dark.hot_fraction", "hot pixels", Limit::AtMost, json_number(j, {"hot_fraction"}),
-                         tol.hot_pixel_frac, "", "cool the camera down / check the sensor; take new dark frames");
-    if (!std::isfinite(hot.value)) hot.detail = "dark.json has no hot_fraction";
-    add(hot);
-    const double bits = json_number(j, {"bit_depth"});
-    CheckItem lvl = item("dark.level", "mean dark level / full scale", Limit::AtMost,
-                         json_number(j, {"mean_bias_dn"}) / (std::ldexp(1.0, static_cast<int>(std::isfinite(bits) ? bits : 16)) - 1.0),
-                         tol.dark_level_frac, "", "lens cap on? light leak? check the camera's black-level setting");
-    if (!std::isfinite(lvl.value)) lvl.detail = "dark.json has no mean_bias_dn";
-    add(lvl);
+  if (cal.dark()) {
+    const DarkFrame& d = *cal.dark();
+    add(item("dark.hot_fraction", "hot pixels", Limit::AtMost, d.hot_fraction(), tol.hot_pixel_frac, "",
+             "cool the camera down / check the sensor; take new dark frames"));
+    add(item("dark.level", "mean dark level / full scale", Limit::AtMost,
+             d.mean_bias_dn / (std::ldexp(1.0, d.bit_depth) - 1.0), tol.dark_level_frac, "",
+             "lens cap on? light leak? check the camera's black-level setting"));
   }
-  if (cal.has(kFlatFile)) {
-    const Json& j = cal.files().at(kFlatFile).json;
-    CheckItem i = item("flat.corner_ratio", "darkest / brightest image corner of the flat field", Limit::AtLeast,
-                       json_number(j, {"corner_ratio"}), tol.flat_min_ratio, "",
-                       "clean the lens, check the diffuser is uniform, open the aperture less; redo the flat field");
-    if (!std::isfinite(i.value)) i.detail = "flat.json has no corner_ratio";
-    add(i);
+  if (cal.flat()) {
+    add(item("flat.corner_ratio", "darkest / brightest image corner of the flat field", Limit::AtLeast,
+             cal.flat()->corner_ratio, tol.flat_min_ratio, "",
+             "clean the lens, check the diffuser is uniform, open the aperture less; redo the flat field"));
   }
   if (cal.sphere()) {
     const auto& s = *cal.sphere();

@@ -1,5 +1,7 @@
 #include "paintlab/calibration/dark.h"
 
+#include "map_file.h"
+
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -15,16 +17,6 @@
 namespace fs = std::filesystem;
 
 namespace paintlab::calib {
-
-namespace {
-
-const char* kChannelSuffix[3] = {".R", ".G", ".B"};
-
-std::string plane_name(const std::string& base, int c, int channels) {
-  return channels == 1 ? base : base + kChannelSuffix[c];
-}
-
-}  // namespace
 
 double DarkFrame::hot_fraction() const {
   const auto n = hot.pixel_count();
@@ -206,24 +198,14 @@ Json DarkFrame::to_json(const std::string& map_file, const std::string& map_sha2
 }
 
 void DarkFrame::save(const fs::path& json_path) const {
-  const fs::path exr_path = fs::path(json_path).replace_extension(".exr");
   ExrImage maps;
-  const int C = channels();
-  for (int c = 0; c < C; ++c) {
-    ImageF b(width(), height(), 1), r(width(), height(), 1);
-    for (std::size_t p = 0; p < b.size(); ++p) {
-      b.data()[p] = bias_dn.data()[p * C + c];
-      r.data()[p] = rate_dn_per_s.data()[p * C + c];
-    }
-    maps.add(plane_name("bias", c, C), std::move(b));
-    maps.add(plane_name("rate", c, C), std::move(r));
-  }
+  add_map_planes(maps, "bias", bias_dn);
+  add_map_planes(maps, "rate", rate_dn_per_s);
   ImageF h(width(), height(), 1);
   for (std::size_t p = 0; p < h.size(); ++p) h.data()[p] = hot.data()[p];
   maps.add("hot", std::move(h));
-  maps.attributes["paintlab.kind"] = "dark";
-  write_exr(exr_path, maps);
-  write_json_file(json_path, to_json(exr_path.filename().string(), sha256_file(exr_path)));
+  const WrittenMaps written = write_map_file(json_path, std::move(maps), "dark");
+  write_json_file(json_path, to_json(written.file, written.sha256));
 }
 
 DarkFrame DarkFrame::load(const fs::path& json_path) {
@@ -244,26 +226,12 @@ DarkFrame DarkFrame::load(const fs::path& json_path) {
     d.read_noise_dn = json_get<double>(j, "read_noise_dn", where);
     d.read_noise_measured = true;
   }
-  const Json& maps_ref = j.contains("maps") ? j.at("maps") : throw DataError(where + ": missing key 'maps'");
-  const fs::path exr_path = json_path.parent_path() / json_get<std::string>(maps_ref, "file", where);
-  const std::string sha = json_get<std::string>(maps_ref, "sha256", where);
-  if (!fs::exists(exr_path)) throw DataError(where + ": its map file " + exr_path.string() + " is missing");
-  if (sha256_file(exr_path) != sha)
-    throw DataError(where + ": its map file " + exr_path.string() + " does not match the recorded SHA-256");
-  const ExrImage maps = read_exr(exr_path);
-  if (maps.width != W || maps.height != H)
-    throw DataError(fmt::format("{}: {}x{} maps, the JSON says {}x{}", exr_path.string(), maps.width, maps.height, W, H));
+  const ExrImage maps = read_map_file(json_path, j, W, H);
   d.bias_dn = ImageF(W, H, C);
   d.rate_dn_per_s = ImageF(W, H, C);
   d.hot = ImageU8(W, H, 1);
-  for (int c = 0; c < C; ++c) {
-    const ImageF& b = maps.plane(plane_name("bias", c, C));
-    const ImageF& r = maps.plane(plane_name("rate", c, C));
-    for (std::size_t p = 0; p < b.size(); ++p) {
-      d.bias_dn.data()[p * C + c] = b.data()[p];
-      d.rate_dn_per_s.data()[p * C + c] = r.data()[p];
-    }
-  }
+  read_map_planes(maps, "bias", d.bias_dn);
+  read_map_planes(maps, "rate", d.rate_dn_per_s);
   const ImageF& h = maps.plane("hot");
   for (std::size_t p = 0; p < h.size(); ++p) {
     d.hot.data()[p] = h.data()[p] > 0.5f ? 1 : 0;

@@ -1,5 +1,7 @@
 #include "paintlab/calibration/flat.h"
 
+#include "map_file.h"
+
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -17,15 +19,6 @@
 namespace fs = std::filesystem;
 
 namespace paintlab::calib {
-
-namespace {
-
-std::string flat_plane(int c, int channels) {
-  static const char* suffix[3] = {".R", ".G", ".B"};
-  return channels == 1 ? std::string("flat") : std::string("flat") + suffix[c];
-}
-
-}  // namespace
 
 void FlatOptions::check() const {
   if (!(max_saturated_fraction >= 0.0 && max_saturated_fraction < 1.0))
@@ -207,17 +200,10 @@ Json FlatField::to_json(const std::string& map_file, const std::string& map_sha2
 }
 
 void FlatField::save(const fs::path& json_path) const {
-  const fs::path exr_path = fs::path(json_path).replace_extension(".exr");
   ExrImage maps;
-  const int C = channels();
-  for (int c = 0; c < C; ++c) {
-    ImageF g(width(), height(), 1);
-    for (std::size_t p = 0; p < g.size(); ++p) g.data()[p] = gain.data()[p * C + c];
-    maps.add(flat_plane(c, C), std::move(g));
-  }
-  maps.attributes["paintlab.kind"] = "flat";
-  write_exr(exr_path, maps);
-  write_json_file(json_path, to_json(exr_path.filename().string(), sha256_file(exr_path)));
+  add_map_planes(maps, "flat", gain);
+  const WrittenMaps written = write_map_file(json_path, std::move(maps), "flat");
+  write_json_file(json_path, to_json(written.file, written.sha256));
 }
 
 FlatField FlatField::load(const fs::path& json_path) {
@@ -237,25 +223,13 @@ FlatField FlatField::load(const fs::path& json_path) {
   f.mean_signal_dn = json_get<double>(j, "mean_signal_dn", where);
   f.saturated_fraction = json_get<double>(j, "saturated_fraction", where);
   if (j.contains("noise")) f.noise = NoiseModel::from_json(j.at("noise"), where);
-  if (!j.contains("maps")) throw DataError(where + ": missing key 'maps'");
-  const Json& maps_ref = j.at("maps");
-  const fs::path exr_path = json_path.parent_path() / json_get<std::string>(maps_ref, "file", where);
-  const std::string sha = json_get<std::string>(maps_ref, "sha256", where);
-  if (!fs::exists(exr_path)) throw DataError(where + ": its map file " + exr_path.string() + " is missing");
-  if (sha256_file(exr_path) != sha)
-    throw DataError(where + ": its map file " + exr_path.string() + " does not match the recorded SHA-256");
-  const ExrImage maps = read_exr(exr_path);
-  if (maps.width != W || maps.height != H)
-    throw DataError(fmt::format("{}: {}x{} map, the JSON says {}x{}", exr_path.string(), maps.width, maps.height, W, H));
+  const ExrImage maps = read_map_file(json_path, j, W, H);
   f.gain = ImageF(W, H, C);
-  for (int c = 0; c < C; ++c) {
-    const ImageF& g = maps.plane(flat_plane(c, C));
-    for (std::size_t p = 0; p < g.size(); ++p) {
-      const float v = g.data()[p];
-      if (!(v > 0.0f) || !std::isfinite(v))
-        throw DataError(fmt::format("{}: gain {} at pixel {} is not finite and > 0", exr_path.string(), v, p));
-      f.gain.data()[p * C + c] = v;
-    }
+  read_map_planes(maps, "flat", f.gain);
+  for (std::size_t p = 0; p < f.gain.size(); ++p) {
+    const float v = f.gain.data()[p];
+    if (!(v > 0.0f) || !std::isfinite(v))
+      throw DataError(fmt::format("{}: its map's gain {} at value {} is not finite and > 0", where, v, p));
   }
   return f;
 }

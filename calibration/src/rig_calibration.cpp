@@ -36,6 +36,9 @@ RigCalibration RigCalibration::load(const std::filesystem::path& dir) {
       if (f.json.contains("provenance")) f.provenance = Provenance::from_json(f.json.at("provenance"), f.path.string());
       const std::string where = f.path.string();
       if (f.name == kCameraFile) c.intrinsics_ = IntrinsicsResult::from_json(f.json, where);
+      if (f.name == kDarkFile) c.dark_ = DarkFrame::load(f.path);
+      if (f.name == kResponseFile) c.response_ = ResponseCurve::from_json(f.json, where);
+      if (f.name == kFlatFile) c.flat_ = FlatField::load(f.path);
       if (f.name == kSphereFile) c.sphere_ = SphereFit::from_json(f.json, where);
       if (f.name == kLightFile) c.light_ = LightCalibration::from_json(f.json, where);
       if (f.name == kScaleFile) c.scale_ = ScaleCalibration::from_json(f.json, where);

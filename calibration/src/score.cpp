@@ -55,9 +55,8 @@ CalibrationScore score_calibration(const RigCalibration& cal, const CalibrationT
     s.reprojection_rms_px = cal.intrinsics()->rms_px;
     s.focal_error_rel = (cam.fx() - K(0, 0)) / K(0, 0);
     s.principal_point_error_px = std::hypot(cam.cx() - K(0, 2), cam.cy() - K(1, 2));
-    const Json& cj = cal.files().at(kCameraFile).json;
-    if (cj.contains("std") && cj["std"].contains("cx"))
-      s.principal_point_std_px = std::hypot(cj["std"].value("cx", 0.0), cj["std"].value("cy", 0.0));
+    const IntrinsicsStd& sd = cal.intrinsics()->std;
+    if (sd.cx > 0 || sd.cy > 0) s.principal_point_std_px = std::hypot(sd.cx, sd.cy);  // 0: camera.json has none
   }
   const Vec3& c_true = truth.sphere_centre_cam_m;
   if (cal.sphere()) s.sphere_centre_error_mm = (cal.sphere()->centre_cam_m - c_true).norm() * 1e3;
@@ -76,8 +75,8 @@ CalibrationScore score_calibration(const RigCalibration& cal, const CalibrationT
     s.light_direction_error_deg = worst_dir;
     s.sphere_distance_error_mm = (c_cal.norm() - c_true.norm()) * 1e3;
   }
-  if (cal.has(kResponseFile) && truth.inverse_response.size() >= 2) {
-    const ResponseCurve g = ResponseCurve::load(cal.path(kResponseFile));
+  if (cal.response() && truth.inverse_response.size() >= 2) {
+    const ResponseCurve& g = *cal.response();
     const double shift = std::ldexp(1.0, g.bit_depth - truth.adc_bits);
     const double span = (truth.adc_max_dn - truth.black_level_dn) * shift;
     const double lo = std::max(g.window.floor_dn, 0.02 * span), hi = g.window.u_saturation();

@@ -1,6 +1,7 @@
 // The read side of a session folder (acquisition/session_reader.h): what bin, fit, export
 // and render rely on before they touch a measurement.
 #include "paintlab/acquisition/session_reader.h"
+#include "paintlab/calibration/dark.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -108,11 +109,18 @@ TEST(SessionReader, CalibrationFromTheGivenFolderOrTheSessionsRigAndClearErrorsO
   // The rig file names its calibration folder (relative to the file).
   test::write_text(tmp / "rig" / "rig.toml", test::small_sim_rig());
   fs::create_directories(tmp / "rig" / "calib");
-  write_json_file(tmp / "rig" / "calib" / calib::kDarkFile, Json{{"note", "read when used"}});
+  calib::DarkFrame dark;
+  dark.bias_dn = ImageF(4, 3, 1, 64.0f);
+  dark.rate_dn_per_s = ImageF(4, 3, 1, 0.0f);
+  dark.hot = ImageU8(4, 3, 1, 0);
+  dark.bit_depth = 12;
+  dark.save(tmp / "rig" / "calib" / calib::kDarkFile);
   const acq::SessionDir s = make_session(tmp / "s", 2, 2, (tmp / "rig" / "rig.toml").string());
 
   const calib::RigCalibration of_rig = acq::session_calibration(s, std::nullopt);
   EXPECT_TRUE(of_rig.has(calib::kDarkFile));
+  ASSERT_TRUE(of_rig.dark());  // loaded as its type, with its map
+  EXPECT_EQ(of_rig.dark()->width(), 4);
   EXPECT_EQ(fs::canonical(of_rig.dir()), fs::canonical(tmp / "rig" / "calib"));
   fs::create_directories(tmp / "other");
   const calib::RigCalibration given = acq::session_calibration(s, tmp / "other");

@@ -8,6 +8,9 @@
 
 #include "paintlab/brdf/cook_torrance.h"
 #include "paintlab/calibration/check.h"
+#include "paintlab/calibration/dark.h"
+#include "paintlab/calibration/flat.h"
+#include "paintlab/calibration/response.h"
 #include "paintlab/core/error.h"
 #include "sim_scenes.h"
 #include "paintlab/sim/paint.h"
@@ -77,15 +80,30 @@ class CheckSim : public ::testing::Test {
     ScaleCalibration sc = calibrate_scale({ref}, *cam_, s, l.model, so);
     sc.provenance = Provenance::make("scale", {}, kDevices);
     sc.save(dir_->path() / kScaleFile);
-    // The radiometric files as the radiometry steps write them (the keys the checks read).
-    write_json_file(dir_->path() / kResponseFile,
-                    {{"provenance", Provenance::make("response", {}, kDevices).to_json()}, {"fit", {{"linearity_error_rel", 0.004}}}});
-    write_json_file(dir_->path() / kDarkFile, {{"provenance", Provenance::make("dark", {}, kDevices).to_json()},
-                                               {"bit_depth", 12},
-                                               {"mean_bias_dn", 64.0},
-                                               {"hot_fraction", 0.0002}});
-    write_json_file(dir_->path() / kFlatFile,
-                    {{"provenance", Provenance::make("flat", {}, kDevices).to_json()}, {"corner_ratio", 0.9}});
+    // The radiometric files as the radiometry steps write them (small maps: the checks read
+    // their figures).
+    ResponseCurve response = ResponseCurve::identity(12, 1, ValueWindow{8.0, 4095.0, 64.0});
+    response.report.linearity_error_rel = 0.004;
+    response.provenance = Provenance::make("response", {}, kDevices);
+    response.save(dir_->path() / kResponseFile);
+    DarkFrame dark;
+    dark.bit_depth = 12;
+    dark.bias_dn = ImageF(100, 50, 1, 64.0f);
+    dark.rate_dn_per_s = ImageF(100, 50, 1, 0.0f);
+    dark.hot = ImageU8(100, 50, 1, 0);
+    dark.hot.at(3, 4) = 1;  // 1 of 5000 pixels
+    dark.hot_count = 1;
+    dark.mean_bias_dn = 64.0;
+    dark.frame_count = 16;
+    dark.exposures_s = {1e-3, 0.3};
+    dark.provenance = Provenance::make("dark", {}, kDevices);
+    dark.save(dir_->path() / kDarkFile);
+    FlatField flat;
+    flat.gain = ImageF(100, 50, 1, 1.0f);
+    flat.corner_ratio = 0.9;
+    flat.frame_count = 8;
+    flat.provenance = Provenance::make("flat", {}, kDevices);
+    flat.save(dir_->path() / kFlatFile);
   }
   static void TearDownTestSuite() {
     delete world_;

@@ -26,6 +26,7 @@
 #include "paintlab/calibration/exposure_stack.h"
 #include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/response.h"
+#include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/image.h"
 #include "paintlab/core/image_io.h"
 
@@ -36,6 +37,9 @@ struct HdrCalibration {
   std::optional<calib::ResponseCurve> response;  // none: a linear camera, g(u) = u
   std::optional<calib::DarkFrame> dark;          // none: subtract the response's black level
   std::optional<calib::FlatField> flat;          // none: gain 1 everywhere
+
+  // The response, dark and flat of a rig's calibration folder, those it holds.
+  static HdrCalibration of(const calib::RigCalibration& rig);
 };
 
 struct HdrOptions {

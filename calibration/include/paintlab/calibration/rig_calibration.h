@@ -9,8 +9,9 @@
 //   double E = cal.irradiance(30.0, *sp);                     // per unit LED intensity, 1/m^2
 //   double f = cal.brdf(rate_dn_per_s, 30.0, *sp);            // 1/sr
 //
-// The radiometric files (response, dark, flat) are kept as their JSON with provenance;
-// their own types (response.h, dark.h, flat.h) load them in full from path(kind).
+// Every file is loaded as its own type (camera, dark, response, flat, sphere, light, scale);
+// the dark and flat maps (their .exr beside the JSON) with them, checked against the
+// SHA-256 their JSON records.
 #include <filesystem>
 #include <initializer_list>
 #include <map>
@@ -18,9 +19,12 @@
 #include <string>
 #include <vector>
 
+#include "paintlab/calibration/dark.h"
+#include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/intrinsics.h"
 #include "paintlab/calibration/light.h"
 #include "paintlab/calibration/record.h"
+#include "paintlab/calibration/response.h"
 #include "paintlab/calibration/scale.h"
 #include "paintlab/calibration/sphere.h"
 #include "paintlab/core/geometry.h"
@@ -61,6 +65,9 @@ class RigCalibration {
   void require(std::initializer_list<const char*> files) const;
 
   const std::optional<IntrinsicsResult>& intrinsics() const { return intrinsics_; }
+  const std::optional<DarkFrame>& dark() const { return dark_; }
+  const std::optional<ResponseCurve>& response() const { return response_; }
+  const std::optional<FlatField>& flat() const { return flat_; }
   const std::optional<SphereFit>& sphere() const { return sphere_; }
   const std::optional<LightCalibration>& light() const { return light_; }
   const std::optional<ScaleCalibration>& scale() const { return scale_; }
@@ -83,6 +90,9 @@ class RigCalibration {
   std::filesystem::path dir_;
   std::map<std::string, CalibrationFile> files_;
   std::optional<IntrinsicsResult> intrinsics_;
+  std::optional<DarkFrame> dark_;
+  std::optional<ResponseCurve> response_;
+  std::optional<FlatField> flat_;
   std::optional<SphereFit> sphere_;
   std::optional<LightCalibration> light_;
   std::optional<ScaleCalibration> scale_;

@@ -1,0 +1,35 @@
+#pragma once
+// The per-pixel maps of dark.json and flat.json: an EXR file beside the JSON (same name,
+// .exr), one float plane per map and channel ("bias", or "bias.R", "bias.G", "bias.B"), named
+// in the JSON's "maps" object with its SHA-256 so that a map of another calibration is caught.
+#include <filesystem>
+#include <string>
+
+#include "paintlab/core/image.h"
+#include "paintlab/core/image_io.h"
+#include "paintlab/core/json.h"
+
+namespace paintlab::calib {
+
+// The plane of channel `c` of an image with `channels` channels: `base`, or base.R/.G/.B.
+std::string map_plane_name(const std::string& base, int c, int channels);
+
+// Adds the channels of the interleaved `image` to `maps` as planes named after `base`.
+void add_map_planes(ExrImage& maps, const std::string& base, const ImageF& image);
+
+// Fills the interleaved `image` (its size and channels already set) from the planes of `base`.
+void read_map_planes(const ExrImage& maps, const std::string& base, ImageF& image);
+
+struct WrittenMaps {
+  std::string file;  // the EXR's file name (beside the JSON)
+  std::string sha256;
+};
+// Writes `maps` (its "paintlab.kind" attribute set to `kind`) beside `json_path` with
+// extension .exr.
+WrittenMaps write_map_file(const std::filesystem::path& json_path, ExrImage maps, const std::string& kind);
+
+// Reads the maps `j["maps"]` names beside `json_path`: DataError naming the JSON when the key,
+// the file or its recorded SHA-256 is missing or wrong, or the maps are not width x height.
+ExrImage read_map_file(const std::filesystem::path& json_path, const Json& j, int width, int height);
+
+}  // namespace paintlab::calib
