@@ -83,7 +83,7 @@ SessionManifest make_manifest(const RigConfig& rig, const MeasureSetup& setup, c
   m.calibration = setup.calibration_checksums;
   m.devices = in.devices;
   m.options = in.options;
-  m.options["pixel_format"] = dev::to_string(camera.format);
+  m.options.pixel_format = dev::to_string(camera.format);
   return m;
 }
 

@@ -17,6 +17,34 @@ constexpr const char* kManifestFile = "session.json";
 constexpr const char* kJournalFile = "journal.jsonl";
 }  // namespace
 
+Json SessionOptions::to_json() const {
+  Json j{{"keep_raw", keep_raw}, {"adaptive", adaptive}, {"uncalibrated", uncalibrated}};
+  if (!pixel_format.empty()) j["pixel_format"] = pixel_format;
+  if (!sim_paint.is_null()) j["sim_paint"] = sim_paint;
+  return j;
+}
+
+SessionOptions SessionOptions::from_json(const Json& j, const std::string& where) {
+  const std::string at = where + ": options";
+  if (!j.is_object()) throw DataError(at + " is not an object");
+  static constexpr const char* kKeys[] = {"keep_raw", "adaptive", "uncalibrated", "pixel_format", "sim_paint"};
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
+      throw DataError(fmt::format("{}: unknown key '{}' (known: keep_raw, adaptive, uncalibrated, pixel_format, "
+                                  "sim_paint)",
+                                  at, it.key()));
+  SessionOptions o;
+  o.keep_raw = json_get_or<bool>(j, "keep_raw", false, at);
+  o.adaptive = json_get_or<bool>(j, "adaptive", false, at);
+  o.uncalibrated = json_get_or<bool>(j, "uncalibrated", false, at);
+  o.pixel_format = json_get_or<std::string>(j, "pixel_format", "", at);
+  if (j.contains("sim_paint")) {
+    o.sim_paint = j.at("sim_paint");
+    if (!o.sim_paint.is_object() && !o.sim_paint.is_null()) throw DataError(at + ": sim_paint is not an object");
+  }
+  return o;
+}
+
 Json SessionManifest::to_json() const {
   return Json{{"format_version", format_version},
               {"sample", sample},
@@ -28,7 +56,7 @@ Json SessionManifest::to_json() const {
               {"plan", {{"angles_deg", angles_deg}, {"exposures_s", exposures_s}, {"settle_s", settle_s}, {"gain_db", gain_db}}},
               {"calibration", calibration},
               {"devices", devices},
-              {"options", options}};
+              {"options", options.to_json()}};
 }
 
 SessionManifest SessionManifest::from_json(const Json& j, const std::string& where) {
@@ -54,7 +82,7 @@ SessionManifest SessionManifest::from_json(const Json& j, const std::string& whe
   if (m.angles_deg.empty()) throw DataError(where + ": plan has no angles");
   m.calibration = j.value("calibration", Json::object());
   m.devices = j.value("devices", Json::object());
-  m.options = j.value("options", Json::object());
+  if (j.contains("options")) m.options = SessionOptions::from_json(j.at("options"), where);
   return m;
 }
 

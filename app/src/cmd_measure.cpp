@@ -97,8 +97,8 @@ int run_measure(const MeasureArgs& a) {
                  "from the current file",
                  rig.file.string());
 
-  const bool uncalibrated = resume ? session->manifest().options.value("uncalibrated", false) : a.uncalibrated;
-  const bool adaptive = resume ? session->manifest().options.value("adaptive", false) : a.adaptive;
+  const bool uncalibrated = resume ? session->manifest().options.uncalibrated : a.uncalibrated;
+  const bool adaptive = resume ? session->manifest().options.adaptive : a.adaptive;
   acq::MeasureSetup setup = acq::prepare_measurement(rig, uncalibrated, adaptive);
 
   StopSignals signals;  // before the devices, so GpiodLight chains to it
@@ -106,7 +106,7 @@ int run_measure(const MeasureArgs& a) {
   Json sim_paint_json;
   if (devices.sim) {
     if (resume) {
-      sim_paint_json = session->manifest().options.value("sim_paint", Json());
+      sim_paint_json = session->manifest().options.sim_paint;
       if (sim_paint_json.is_null())
         throw DataError(a.resume + "/session.json: this simulated session does not record its sim paint");
     } else {
@@ -126,14 +126,16 @@ int run_measure(const MeasureArgs& a) {
     in.devices = {{"turntable", {{"id", devices.turntable->id()}}},
                   {"light", {{"id", devices.light->id()}}},
                   {"camera", {{"id", devices.camera->id()}, {"serial", devices.camera->serial()}}}};
-    in.options = {{"keep_raw", a.keep_raw}, {"adaptive", adaptive}, {"uncalibrated", uncalibrated}};
-    if (devices.sim) in.options["sim_paint"] = sim_paint_json;
+    in.options.keep_raw = a.keep_raw;
+    in.options.adaptive = adaptive;
+    in.options.uncalibrated = uncalibrated;
+    if (devices.sim) in.options.sim_paint = sim_paint_json;
     acq::SessionManifest m = acq::make_manifest(rig, setup, cam, in);
     session.emplace(acq::SessionDir::create(a.out, std::move(m)));
   }
 
   acq::RunnerOptions ro;
-  ro.keep_raw = resume ? session->manifest().options.value("keep_raw", false) : a.keep_raw;
+  ro.keep_raw = resume ? session->manifest().options.keep_raw : a.keep_raw;
   ro.max_retries = a.max_retries;
   acq::BracketMerger merge(setup.hdr, dev::bit_depth(cam.format));
   acq::Runner runner(*session, {*devices.turntable, *devices.light, *devices.camera, *devices.clock},

@@ -86,7 +86,7 @@ TEST(Measurement, ManifestRecordsRigPlanCameraAndOptions) {
   in.sample = "panel-7";
   in.operator_name = "jo";
   in.devices = {{"camera", {{"id", "camera test"}}}};
-  in.options = {{"adaptive", true}};
+  in.options.adaptive = true;
   const acq::SessionManifest m = acq::make_manifest(rig, setup, cam, in);
   EXPECT_EQ(m.sample, "panel-7");
   EXPECT_EQ(m.operator_name, "jo");
@@ -97,11 +97,41 @@ TEST(Measurement, ManifestRecordsRigPlanCameraAndOptions) {
   EXPECT_EQ(m.exposures_s.size(), 3u);
   EXPECT_DOUBLE_EQ(m.gain_db, 1.5);
   EXPECT_EQ(m.calibration, setup.calibration_checksums);
-  EXPECT_EQ(m.options["adaptive"], true);
-  EXPECT_EQ(m.options["pixel_format"], "Mono12");
+  EXPECT_TRUE(m.options.adaptive);
+  EXPECT_EQ(m.options.pixel_format, "Mono12");
   EXPECT_FALSE(m.created_utc.empty());
   // It is a valid session manifest.
   EXPECT_EQ(acq::SessionManifest::from_json(m.to_json(), "test").sample, "panel-7");
+}
+
+TEST(Measurement, SessionOptionsRoundTripAndAMistypedKeyIsRefused) {
+  acq::SessionOptions o;
+  o.keep_raw = true;
+  o.uncalibrated = true;
+  o.pixel_format = "Mono12";
+  o.sim_paint = Json{{"name", "p"}, {"model", "cook-torrance"}};
+  const acq::SessionOptions back = acq::SessionOptions::from_json(o.to_json(), "s/session.json");
+  EXPECT_TRUE(back.keep_raw);
+  EXPECT_FALSE(back.adaptive);
+  EXPECT_TRUE(back.uncalibrated);
+  EXPECT_EQ(back.pixel_format, "Mono12");
+  EXPECT_EQ(back.sim_paint, o.sim_paint);
+  // Sessions written before a key existed read it as its default.
+  EXPECT_FALSE(acq::SessionOptions::from_json(Json::object(), "s/session.json").keep_raw);
+  EXPECT_TRUE(acq::SessionOptions::from_json(Json::object(), "s/session.json").sim_paint.is_null());
+  try {
+    acq::SessionOptions::from_json(Json{{"keep_raws", true}}, "s/session.json");
+    FAIL() << "a mistyped key was read";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("s/session.json: options: unknown key 'keep_raws'"));
+  }
+  try {
+    acq::SessionOptions::from_json(Json{{"adaptive", "yes"}}, "s/session.json");
+    FAIL() << "a string was read as a flag";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("adaptive"));
+  }
+  EXPECT_THROW(acq::SessionOptions::from_json(Json{{"sim_paint", 3}}, "s/session.json"), DataError);
 }
 
 TEST(Measurement, BracketMergerMergesEveryBracketWithOneMerger) {

@@ -48,7 +48,7 @@ struct ManifestInput {
   std::string notes;
   std::string operator_name;
   Json devices = Json::object();  // role -> {"id", "serial"}
-  Json options = Json::object();  // keep_raw, adaptive, uncalibrated, ...
+  SessionOptions options;  // pixel_format is the camera's (make_manifest sets it)
 };
 SessionManifest make_manifest(const RigConfig& rig, const MeasureSetup& setup, const CameraPreparation& camera,
                               const ManifestInput& input);

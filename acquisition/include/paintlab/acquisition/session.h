@@ -18,6 +18,20 @@ namespace paintlab::acq {
 
 inline constexpr int kSessionFormatVersion = 1;
 
+// How a session is measured (session.json "options"): what `paintlab measure --resume` keeps.
+// Reading refuses a key it does not know and a value of the wrong type, naming both, so that a
+// mistyped key cannot silently read as false.
+struct SessionOptions {
+  bool keep_raw = false;      // the raw frames are kept in raw/pos_XXX/
+  bool adaptive = false;      // adaptive bracketing (exposures chosen per position)
+  bool uncalibrated = false;  // measured without response/dark: the HDR values are raw DN/s
+  std::string pixel_format;   // the camera's ("Mono16", ...); empty when not recorded
+  Json sim_paint;             // simulated rigs: the paint the simulator showed (paint JSON); null otherwise
+
+  Json to_json() const;
+  static SessionOptions from_json(const Json& j, const std::string& where);
+};
+
 struct SessionManifest {
   int format_version = kSessionFormatVersion;
   std::string sample;
@@ -34,7 +48,7 @@ struct SessionManifest {
   double gain_db = 0.0;
   Json calibration = Json::object();     // calibration file name -> sha256
   Json devices = Json::object();         // role -> {"id":..., "serial":...}
-  Json options = Json::object();         // keep_raw, adaptive, ...
+  SessionOptions options;
 
   Json to_json() const;
   static SessionManifest from_json(const Json& j, const std::string& where);
