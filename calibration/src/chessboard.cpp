@@ -52,10 +52,8 @@ void BoardSpec::check() const {
     throw UsageError("board: square size must be > 0 mm (got " + std::to_string(square_m * 1e3) + ")");
 }
 
-namespace {
 constexpr EnumNames<CornerMethod, 2> kCornerMethodNames{
     {{CornerMethod::SaddleFit, "saddle-fit"}, {CornerMethod::OpenCvSubPix, "opencv-subpix"}}};
-}  // namespace
 
 const char* to_string(CornerMethod m) { return enum_name(kCornerMethodNames, m); }
 

@@ -5,10 +5,8 @@
 
 namespace paintlab::dev {
 
-namespace {
 constexpr EnumNames<PixelFormat, 3> kPixelFormatNames{
     {{PixelFormat::Mono8, "Mono8"}, {PixelFormat::Mono12, "Mono12"}, {PixelFormat::Mono16, "Mono16"}}};
-}  // namespace
 
 const char* to_string(PixelFormat f) { return enum_name(kPixelFormatNames, f, "Mono16"); }
 

@@ -289,6 +289,27 @@ std::optional<DoubleArray> read_checked(hid_t loc, const std::string& name, cons
   return a;
 }
 
+// The dataset that sets a group's lobe count: shape [N] with 1 to 3 lobes, values in `r`;
+// the group's lobe_count attribute must agree. `*n` = N (0 when the shape is unreadable).
+std::optional<DoubleArray> read_lobe_count_dataset(hid_t g, const std::string& name, const std::string& gp,
+                                                   const Range& r, const Problems& p, hsize_t* n) {
+  *n = 0;
+  const std::string path = h5::join(gp, name);
+  auto a = h5::read_doubles(g, name, path, p);
+  if (a) {
+    if (a->dims.size() != 1 || a->dims[0] < 1 || a->dims[0] > 3) {
+      p.add(path, "wrong shape " + shape_text(a->dims) + ", expected [N] with 1 to 3 lobes");
+      a.reset();
+    } else {
+      *n = a->dims[0];
+      if (!check_values(*a, path, r, p)) a.reset();
+    }
+  }
+  if (auto lc = h5::read_attr_int(g, "lobe_count", gp, p); lc && *n > 0 && *lc != static_cast<std::int64_t>(*n))
+    p.add(h5::attr_path(gp, "lobe_count"), fmt::format("is {} but {} has {} lobes", *lc, path, *n));
+  return a;
+}
+
 void check_conventions(hid_t root, const std::string& rp, const Problems& p) {
   const std::string gp = h5::join(rp, "conventions");
   Handle g = h5::open_group(root, "conventions", gp, p);
@@ -313,19 +334,7 @@ std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::stri
 
   // The lobe count comes from ct_coeffs; the other lobe datasets and lobe_count must agree.
   hsize_t n = 0;
-  const std::string cp = h5::join(gp, "ct_coeffs");
-  auto coeffs = h5::read_doubles(g.get(), "ct_coeffs", cp, p);
-  if (coeffs) {
-    if (coeffs->dims.size() != 1 || coeffs->dims[0] < 1 || coeffs->dims[0] > 3) {
-      p.add(cp, "wrong shape " + shape_text(coeffs->dims) + ", expected [N] with 1 to 3 lobes");
-      coeffs.reset();
-    } else {
-      n = coeffs->dims[0];
-      if (!check_values(*coeffs, cp, Range::non_negative(), p)) coeffs.reset();
-    }
-  }
-  if (auto lc = h5::read_attr_int(g.get(), "lobe_count", gp, p); lc && n > 0 && *lc != static_cast<std::int64_t>(n))
-    p.add(h5::attr_path(gp, "lobe_count"), fmt::format("is {} but {} has {} lobes", *lc, cp, n));
+  auto coeffs = read_lobe_count_dataset(g.get(), "ct_coeffs", gp, Range::non_negative(), p, &n);
   std::optional<DoubleArray> spreads, f0s;
   if (n > 0) {
     const std::string why = " (one per lobe of ct_coeffs)";
@@ -409,19 +418,7 @@ std::optional<AxfCookTorrance> read_cook_torrance(hid_t root, const std::string&
   const std::size_t before = p.list->size();
   AxfCookTorrance ct;
   hsize_t n = 0;
-  const std::string mp = h5::join(gp, "m");
-  auto m = h5::read_doubles(g.get(), "m", mp, p);
-  if (m) {
-    if (m->dims.size() != 1 || m->dims[0] < 1 || m->dims[0] > 3) {
-      p.add(mp, "wrong shape " + shape_text(m->dims) + ", expected [N] with 1 to 3 lobes");
-      m.reset();
-    } else {
-      n = m->dims[0];
-      if (!check_values(*m, mp, Range::open01(), p)) m.reset();
-    }
-  }
-  if (auto lc = h5::read_attr_int(g.get(), "lobe_count", gp, p); lc && n > 0 && *lc != static_cast<std::int64_t>(n))
-    p.add(h5::attr_path(gp, "lobe_count"), fmt::format("is {} but {} has {} lobes", *lc, mp, n));
+  auto m = read_lobe_count_dataset(g.get(), "m", gp, Range::open01(), p, &n);
   const std::string why = " (one per lobe of m)";
   auto kd = read_checked(g.get(), "kd", gp, {3}, Range::non_negative(), p);
   std::optional<DoubleArray> ks, r;

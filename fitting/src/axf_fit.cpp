@@ -259,13 +259,7 @@ void AxfFitOptions::check() const {
   auto fail = [](const std::string& key, const std::string& value, const char* rule) {
     throw OptionError("AxfFitOptions::" + key, value, rule);
   };
-  if (lobes < 1 || lobes > kMaxAxfLobes) fail("lobes", std::to_string(lobes), "1..3");
-  if (grid_starts < 1) fail("grid_starts", std::to_string(grid_starts), ">= 1");
-  if (random_starts < 0) fail("random_starts", std::to_string(random_starts), ">= 0");
-  if (max_iterations < 1) fail("max_iterations", std::to_string(max_iterations), ">= 1");
-  if (start_bins < 100) fail("start_bins", std::to_string(start_bins), ">= 100");
-  if (!(huber_scale >= 0.0)) fail("huber_scale", fmt::format("{}", huber_scale), ">= 0");
-  if (!(m_min > 0.0 && m_min < 0.1)) fail("m_min", fmt::format("{}", m_min), "in (0, 0.1)");
+  check_shared("AxfFitOptions");
   if (!(ior_min >= 1.0 && ior_min < ior_max && ior_max <= 3.0))
     fail("ior_min/ior_max", fmt::format("{}/{}", ior_min, ior_max), "1 <= ior_min < ior_max <= 3");
   if (!(ior_start >= ior_min && ior_start <= ior_max))
@@ -274,9 +268,6 @@ void AxfFitOptions::check() const {
   if (chi_theta_h < 2 || chi_theta_h > 1024) fail("chi_theta_h", std::to_string(chi_theta_h), "2..1024");
   if (chi_theta_i < 2 || chi_theta_i > 1024) fail("chi_theta_i", std::to_string(chi_theta_i), "2..1024");
   if (!(chi_smoothing_texels > 0.0)) fail("chi_smoothing_texels", fmt::format("{}", chi_smoothing_texels), "> 0");
-  if (threads < 0) fail("threads", std::to_string(threads), ">= 0");
-  if (chunk_bins < 1) fail("chunk_bins", std::to_string(chunk_bins), ">= 1");
-  data.check();
 }
 
 Json AxfStddev::to_json() const {

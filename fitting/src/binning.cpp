@@ -14,16 +14,12 @@
 
 #include "bin_index.h"
 #include "paintlab/core/enum_names.h"
+#include "fit_util.h"
 #include "paintlab/core/error.h"
 
 namespace paintlab::fit {
 
 namespace {
-
-using brdf::kMerlBins;
-using brdf::kMerlPhiD;
-using brdf::kMerlThetaD;
-using brdf::kMerlThetaH;
 
 // One bin's running sums in one 64-byte cache line. Coordinates are summed as offsets
 // from the bin's lower edges (small numbers: float is exact enough); values in double so
@@ -126,10 +122,8 @@ void SampleBatch::check_consistent() const {
 // ---------------------------------------------------------------------------------------
 // Options
 
-namespace {
 constexpr EnumNames<BinEstimator, 2> kEstimatorNames{
     {{BinEstimator::Mean, "mean"}, {BinEstimator::MedianOfMeans, "median-of-means"}}};
-}  // namespace
 
 const char* to_string(BinEstimator e) { return enum_name(kEstimatorNames, e); }
 

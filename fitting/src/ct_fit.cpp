@@ -379,15 +379,7 @@ void CtFitOptions::check() const {
   auto fail = [](const std::string& key, const std::string& value, const char* rule) {
     throw OptionError("CtFitOptions::" + key, value, rule);
   };
-  if (lobes < 1 || lobes > kMaxLobes) fail("lobes", std::to_string(lobes), "1..3");
-  if (grid_starts < 1) fail("grid_starts", std::to_string(grid_starts), ">= 1");
-  if (random_starts < 0) fail("random_starts", std::to_string(random_starts), ">= 0");
-  if (max_iterations < 1) fail("max_iterations", std::to_string(max_iterations), ">= 1");
-  if (start_bins < 100) fail("start_bins", std::to_string(start_bins), ">= 100");
-  if (!(huber_scale >= 0.0)) fail("huber_scale", fmt::format("{}", huber_scale), ">= 0");
-  if (!(m_min > 0.0 && m_min < 0.1)) fail("m_min", fmt::format("{}", m_min), "in (0, 0.1)");
-  if (threads < 0) fail("threads", std::to_string(threads), ">= 0");
-  if (chunk_bins < 1) fail("chunk_bins", std::to_string(chunk_bins), ">= 1");
+  check_shared("CtFitOptions");
   if (!(function_tolerance > 0.0 && function_tolerance < 1e-3))
     fail("function_tolerance", fmt::format("{}", function_tolerance), "in (0, 1e-3)");
   if (warm_start) {
@@ -397,7 +389,6 @@ void CtFitOptions::check() const {
       if (!(l.m > 0.0 && l.m < 1.0 && l.r > 0.0 && l.r < 1.0))
         fail("warm_start", fmt::format("a lobe with m = {}, r = {}", l.m, l.r), "m and r in (0, 1)");
   }
-  data.check();
 }
 
 Json StartReport::to_json() const {

@@ -32,9 +32,7 @@ void ExtractionOptions::check() const {
   if (images_in_flight < 0) fail("images_in_flight", images_in_flight, ">= 0");
 }
 
-namespace {
 constexpr EnumNames<VarianceModel, 2> kVarianceNames{{{VarianceModel::Hdr, "hdr"}, {VarianceModel::Local, "local"}}};
-}  // namespace
 
 const char* to_string(VarianceModel v) { return enum_name(kVarianceNames, v); }
 

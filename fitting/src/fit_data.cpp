@@ -12,10 +12,6 @@
 namespace paintlab::fit {
 
 namespace {
-using brdf::kMerlBins;
-using brdf::kMerlPhiD;
-using brdf::kMerlThetaD;
-using brdf::kMerlThetaH;
 
 // Linear residual weights of every fit point (fit_data.h): the reference value from the
 // samples of the neighbouring bins, the point's own bins left out, so that a point's weight
@@ -119,9 +115,7 @@ void FitDataOptions::check() const {
     throw OptionError("FitDataOptions::window_phi_d", std::to_string(window_phi_d), "1..90");
 }
 
-namespace {
 constexpr EnumNames<FitResiduals, 2> kResidualNames{{{FitResiduals::Log, "log"}, {FitResiduals::Linear, "linear"}}};
-}  // namespace
 
 const char* to_string(FitResiduals r) { return enum_name(kResidualNames, r); }
 
@@ -134,6 +128,22 @@ const char* to_string(NoiseSource s) {
                                                      {NoiseSource::SampleSpread, "sample-spread"},
                                                      {NoiseSource::SampleNoise, "sample-noise"}}};
   return enum_name(kNames, s);
+}
+
+void MultiStartOptions::check_shared(const char* owner) const {
+  auto fail = [owner](const std::string& key, const std::string& value, const char* rule) {
+    throw OptionError(std::string(owner) + "::" + key, value, rule);
+  };
+  if (lobes < 1 || lobes > 3) fail("lobes", std::to_string(lobes), "1..3");
+  if (grid_starts < 1) fail("grid_starts", std::to_string(grid_starts), ">= 1");
+  if (random_starts < 0) fail("random_starts", std::to_string(random_starts), ">= 0");
+  if (max_iterations < 1) fail("max_iterations", std::to_string(max_iterations), ">= 1");
+  if (start_bins < 100) fail("start_bins", std::to_string(start_bins), ">= 100");
+  if (!(huber_scale >= 0.0)) fail("huber_scale", fmt::format("{}", huber_scale), ">= 0");
+  if (!(m_min > 0.0 && m_min < 0.1)) fail("m_min", fmt::format("{}", m_min), "in (0, 0.1)");
+  if (threads < 0) fail("threads", std::to_string(threads), ">= 0");
+  if (chunk_bins < 1) fail("chunk_bins", std::to_string(chunk_bins), ">= 1");
+  data.check();
 }
 
 FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& options,

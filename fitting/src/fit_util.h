@@ -1,13 +1,20 @@
 #pragma once
-// Small helpers shared by the fits (JSON of numbers that may be NaN, a hash for
-// deterministic subsampling).
+// Small helpers shared by the fits, binning and hole filling (the MERL dimensions, JSON of
+// numbers that may be NaN, a hash for deterministic subsampling).
 #include <cmath>
 #include <cstdint>
 
 #include "paintlab/brdf/brdf.h"
+#include "paintlab/brdf/merl.h"
 #include "paintlab/core/json.h"
 
 namespace paintlab::fit {
+
+// The MERL table's dimensions, as the fitting code names them.
+using brdf::kMerlBins;
+using brdf::kMerlPhiD;
+using brdf::kMerlThetaD;
+using brdf::kMerlThetaH;
 
 // NaN and infinities become null (JSON has no NaN).
 inline Json number_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }

@@ -6,17 +6,13 @@
 #include <cmath>
 #include <vector>
 
+#include "fit_util.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/coverage.h"
 
 namespace paintlab::fit {
 
 namespace {
-
-using brdf::kMerlBins;
-using brdf::kMerlPhiD;
-using brdf::kMerlThetaD;
-using brdf::kMerlThetaH;
 
 struct Level {
   int n0 = 0, n1 = 0, n2 = 0;  // theta_h, theta_d, phi_d

@@ -10,10 +10,8 @@
 
 namespace paintlab::fit {
 
-namespace {
 constexpr EnumNames<FitModel, 2> kModelNames{
     {{FitModel::CookTorrance, "cook-torrance"}, {FitModel::AxfCarPaint, "axf-carpaint"}}};
-}  // namespace
 
 const char* to_string(FitModel m) { return enum_name(kModelNames, m); }
 
@@ -22,16 +20,13 @@ FitModel fit_model_from_string(std::string_view s, std::string_view where) {
 }
 
 void FitRequest::set_shared(const SharedFitOptions& s) {
-  cook_torrance.lobes = s.lobes;
-  cook_torrance.seed = s.seed;
-  cook_torrance.threads = s.threads;
-  cook_torrance.max_iterations = s.max_iterations;
-  cook_torrance.data.min_samples = s.min_samples;
-  axf_carpaint.lobes = s.lobes;
-  axf_carpaint.seed = s.seed;
-  axf_carpaint.threads = s.threads;
-  axf_carpaint.max_iterations = s.max_iterations;
-  axf_carpaint.data.min_samples = s.min_samples;
+  for (MultiStartOptions* o : {static_cast<MultiStartOptions*>(&cook_torrance), static_cast<MultiStartOptions*>(&axf_carpaint)}) {
+    o->lobes = s.lobes;
+    o->seed = s.seed;
+    o->threads = s.threads;
+    o->max_iterations = s.max_iterations;
+    o->data.min_samples = s.min_samples;
+  }
 }
 
 FitRequest FitRequest::with(FitModel model, std::string name, const SharedFitOptions& shared) {

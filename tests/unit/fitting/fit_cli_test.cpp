@@ -139,15 +139,8 @@ TEST(FitCli, BadInputFailsWithoutWritingAnything) {
 TEST(FitCli, AFitThatDoesNotConvergeIsWrittenAndExitsOne) {
   test::TempDir dir;
   // A layered pearlescent paint is no sum of Cook-Torrance lobes; one iteration cannot converge.
-  brdf::PearlescentParams p;
-  p.substrate = brdf::Rgb(0.85, 0.85, 0.87);
-  p.gloss_roughness = 0.03;
-  p.coverage = 0.9;
-  p.opacity = 0.15;
-  p.flake_roughness = 0.18;
-  p.film_ior = 2.5;
-  p.film_thickness_nm = 160;
-  brdf::write_merl(dir / "pearl.binary", test_support::tabulate_sparse(brdf::LayeredPearlescent(p), 16));
+  brdf::write_merl(dir / "pearl.binary",
+                   test_support::tabulate_sparse(brdf::LayeredPearlescent(test_support::white_pearl()), 16));
   const std::string out = (dir / "fit.json").string();
   const auto r = test::run_paintlab("fit " + (dir / "pearl.binary").string() + " --max-iterations 1 --out " + out);
   EXPECT_EQ(r.exit_code, 1) << r.out << r.err;

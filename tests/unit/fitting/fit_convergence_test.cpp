@@ -45,15 +45,7 @@ void conv_print(const char* what, const CookTorranceFit& f) {
 TEST(FitConvergence, AFitStoppedAtItsLimitReturnsItsLastParameters) {
   // A layered pearlescent paint is no sum of Cook-Torrance lobes: its polish needs many
   // iterations, one cannot converge.
-  brdf::PearlescentParams pearl;
-  pearl.substrate = brdf::Rgb(0.85, 0.85, 0.87);
-  pearl.gloss_roughness = 0.03;
-  pearl.coverage = 0.9;
-  pearl.opacity = 0.15;
-  pearl.flake_roughness = 0.18;
-  pearl.film_ior = 2.5;
-  pearl.film_thickness_nm = 160;
-  const brdf::MerlTable table = test_support::tabulate_sparse(brdf::LayeredPearlescent(pearl), 16);
+  const brdf::MerlTable table = test_support::tabulate_sparse(brdf::LayeredPearlescent(test_support::white_pearl()), 16);
   SharedFitOptions shared;
   shared.lobes = 3;
   shared.max_iterations = 1;

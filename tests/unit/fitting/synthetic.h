@@ -9,6 +9,7 @@
 
 #include "paintlab/brdf/brdf.h"
 #include "paintlab/brdf/merl.h"
+#include "paintlab/brdf/pearlescent.h"
 #include "paintlab/brdf/rusinkiewicz.h"
 #include "paintlab/core/geometry.h"
 #include "paintlab/fitting/binning.h"
@@ -60,6 +61,20 @@ inline brdf::MerlTable tabulate_sparse(const brdf::Brdf& paint, std::size_t stri
     table.set_value(b, paint.eval(d.wi, d.wo), brdf::BinState::Measured);
   }
   return table;
+}
+
+// A white pearlescent paint: a layered paint that is no sum of Cook-Torrance lobes, so one
+// iteration of a Cook-Torrance fit cannot converge on it (and a full fit needs many).
+inline brdf::PearlescentParams white_pearl() {
+  brdf::PearlescentParams p;
+  p.substrate = brdf::Rgb(0.85, 0.85, 0.87);
+  p.gloss_roughness = 0.03;
+  p.coverage = 0.9;
+  p.opacity = 0.15;
+  p.flake_roughness = 0.18;
+  p.film_ior = 2.5;
+  p.film_thickness_nm = 160;
+  return p;
 }
 
 // A whole sweep (angles start..stop in step) binned.

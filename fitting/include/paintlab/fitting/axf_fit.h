@@ -30,25 +30,14 @@
 
 namespace paintlab::fit {
 
-struct AxfFitOptions {
-  int lobes = 3;                   // achromatic lobes, 1..3
-  int grid_starts = 3;             // >= 1
-  int random_starts = 2;           // >= 0
-  std::uint64_t seed = 1;
-  int max_iterations = 100;        // final solve; starts get a third
-  std::size_t start_bins = 15000;  // subsample of the starts
-  double huber_scale = 2.0;        // in sigmas; 0 = least squares
-  double m_min = 1e-3;             // lower bound of the spreads
+struct AxfFitOptions : MultiStartOptions {
+  AxfFitOptions() { grid_starts = 3; }
   double ior_min = 1.0, ior_max = 2.5, ior_start = 1.5;
   double f0 = 0.9;                 // F0 of every lobe when not fitted (aluminium flakes), (0, 1)
   bool fit_f0 = false;
   int chi_theta_h = 32;            // colour table samples over theta_hbar, >= 2
   int chi_theta_i = 32;            // and over theta_ibar, >= 2
   double chi_smoothing_texels = 1.0;  // Gaussian sigma of the smoothing, > 0
-  int threads = 0;
-  bool covariance = true;
-  int chunk_bins = 256;
-  FitDataOptions data;
   void check() const;
 };
 

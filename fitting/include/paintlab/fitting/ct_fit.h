@@ -26,18 +26,7 @@
 
 namespace paintlab::fit {
 
-struct CtFitOptions {
-  int lobes = 3;                  // 1..3
-  int grid_starts = 4;            // best grid points started from, >= 1
-  int random_starts = 2;          // seeded perturbations of the best grid point, >= 0
-  std::uint64_t seed = 1;         // of the random starts
-  int max_iterations = 100;       // of the final solve (starts get a third), >= 1
-  std::size_t start_bins = 15000; // subsample size for the starts (all bins if fewer)
-  double huber_scale = 2.0;       // in sigmas; 0 = plain least squares
-  double m_min = 1e-3;            // lower bound of m
-  int threads = 0;                // 0 = all cores
-  bool covariance = true;
-  int chunk_bins = 256;           // bins per residual block
+struct CtFitOptions : MultiStartOptions {
   // Ceres' convergence test: relative change of the cost per iteration. A model that
   // cannot follow the data (a pearlescent paint with Cook-Torrance lobes) creeps for many
   // iterations at 1e-8; 1e-6 stops it where the parameters no longer matter.
@@ -46,8 +35,7 @@ struct CtFitOptions {
   // and add the missing ones (roughness from the grid, kd and ks re-solved by NNLS), so the
   // N-lobe fit ends at least as good as it on the start subsample.
   std::optional<brdf::CookTorranceParams> warm_start;
-  FitDataOptions data;
-  void check() const;             // DataError naming the first violated rule
+  void check() const;             // OptionError naming the first violated rule
 };
 
 // One start of the multi-start search.

@@ -77,6 +77,25 @@ struct FitDataOptions {
   void check() const;
 };
 
+// What the Cook-Torrance and the AxF car-paint fits share: the multi-start search, the
+// solver and the data. CtFitOptions and AxfFitOptions derive from it.
+struct MultiStartOptions {
+  int lobes = 3;                   // Cook-Torrance lobes, or the car paint's achromatic lobes: 1..3
+  int grid_starts = 4;             // best grid points started from, >= 1
+  int random_starts = 2;           // seeded perturbations of the best grid point, >= 0
+  std::uint64_t seed = 1;          // of the random starts
+  int max_iterations = 100;        // of the final solve (starts get a third), >= 1
+  std::size_t start_bins = 15000;  // subsample size for the starts (all bins if fewer), >= 100
+  double huber_scale = 2.0;        // in sigmas; 0 = plain least squares
+  double m_min = 1e-3;             // lower bound of m (or of the spreads), (0, 0.1)
+  int threads = 0;                 // 0 = all cores
+  bool covariance = true;
+  int chunk_bins = 256;            // bins per residual block, >= 1
+  FitDataOptions data;
+  // OptionError "<owner>::<field>" for the first violated rule.
+  void check_shared(const char* owner) const;
+};
+
 // A bin inside a fit point: where the model is evaluated and with which weight
 // (its share of the point's samples; the weights of a point sum to 1).
 struct FitMember {
