@@ -10,6 +10,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "paintlab/calibration/cost_functions.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
 
@@ -49,28 +50,6 @@ std::vector<cv::Point2f> cv_points(const std::vector<Vec2>& v) {
   return out;
 }
 
-// Reprojection of one board corner: OpenCV's model with intrinsics (fx, fy, cx, cy, k1, k2,
-// p1, p2, k3) and the view's pose (angle-axis, translation).
-struct ReprojectionCost {
-  double X, Y, u, v;
-  template <class T>
-  bool operator()(const T* in, const T* pose, T* r) const {
-    const T p[3] = {T(X), T(Y), T(0.0)};
-    T q[3];
-    ceres::AngleAxisRotatePoint(pose, p, q);
-    q[0] += pose[3];
-    q[1] += pose[4];
-    q[2] += pose[5];
-    const T x = q[0] / q[2], y = q[1] / q[2];
-    const T r2 = x * x + y * y;
-    const T radial = T(1.0) + r2 * (in[4] + r2 * (in[5] + r2 * in[8]));
-    const T xd = x * radial + T(2.0) * in[6] * x * y + in[7] * (r2 + T(2.0) * x * x);
-    const T yd = y * radial + in[6] * (r2 + T(2.0) * y * y) + T(2.0) * in[7] * x * y;
-    r[0] = in[0] * xd + in[2] - T(u);
-    r[1] = in[1] * yd + in[3] - T(v);
-    return true;
-  }
-};
 
 // OpenCV's Levenberg-Marquardt stops early in the flat valleys of long lenses (measured on
 // the simulated 50 mm rig: two starts ended 0.45 % apart in focal length and 6 px apart in
@@ -93,8 +72,8 @@ void refine(const std::vector<const CornerView*>& views, const BoardSpec& board,
   int n = 0;
   for (std::size_t k = 0; k < views.size(); ++k)
     for (std::size_t i = 0; i < obj.size(); ++i, ++n)
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 9, 6>(new ReprojectionCost{
-                                   obj[i].x(), obj[i].y(), views[k]->corners_px[i].x(), views[k]->corners_px[i].y()}),
+      problem.AddResidualBlock(ReprojectionCost::Create(obj[i].x(), obj[i].y(), views[k]->corners_px[i].x(),
+                                                        views[k]->corners_px[i].y()),
                                nullptr, in, poses[k].data());
   if (fix_k3) {
     in[8] = 0.0;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include "paintlab/calibration/cost_functions.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
 
@@ -399,34 +400,6 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
 
 namespace {
 
-// Parameters: axis tilt (a, b) around a0, axis offset (u, v) in the plane normal to a0,
-// then R, h, zero (rad).
-struct CircleCost {
-  Vec3 point, dir, t1, t2;  // X_s, observed unit mirror direction, its tangent basis
-  double angle_rad;         // table angle
-  Vec3 centre, a0, e1, e2;
-  template <class T>
-  bool operator()(const T* ab, const T* uv, const T* rhz, T* res) const {
-    using std::cos;
-    using std::sin;
-    using std::sqrt;
-    Eigen::Matrix<T, 3, 1> z = a0.cast<T>() + ab[0] * e1.cast<T>() + ab[1] * e2.cast<T>();
-    z /= sqrt(z.squaredNorm());
-    Eigen::Matrix<T, 3, 1> off = uv[0] * e1.cast<T>() + uv[1] * e2.cast<T>();
-    off -= off.dot(z) * z;
-    const Eigen::Matrix<T, 3, 1> O = centre.cast<T>() + off;
-    Eigen::Matrix<T, 3, 1> x = -O - (-O).dot(z) * z;
-    x /= sqrt(x.squaredNorm());
-    const Eigen::Matrix<T, 3, 1> y = z.cross(x);
-    const T a = T(angle_rad) + rhz[2];
-    const Eigen::Matrix<T, 3, 1> L = O + rhz[0] * (cos(a) * x + sin(a) * y) + rhz[1] * z;
-    Eigen::Matrix<T, 3, 1> w = L - point.cast<T>();
-    w /= sqrt(w.squaredNorm());
-    res[0] = w.dot(t1.cast<T>());
-    res[1] = w.dot(t2.cast<T>());
-    return true;
-  }
-};
 
 struct CircleParams {
   double ab[2] = {0, 0};
@@ -558,8 +531,7 @@ LightCalibration fit_light_model(std::vector<Highlight> highlights, const Sphere
       if (!use[i]) continue;
       const Highlight& h = highlights[i];
       Vec3 t1 = h.mirror_dir.unitOrthogonal(), t2 = h.mirror_dir.cross(t1);
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<CircleCost, 2, 2, 2, 3>(new CircleCost{
-                                    h.point_cam, h.mirror_dir, t1, t2, deg_to_rad(h.table_angle_deg), C, a0, e1, e2}),
+      problem->AddResidualBlock(LedCircleCost::Create({h.point_cam, h.mirror_dir, t1, t2, deg_to_rad(h.table_angle_deg), C, a0, e1, e2}),
                                 round == 0 ? new ceres::HuberLoss(deg_to_rad(0.05)) : nullptr, p.ab, p.uv, p.rhz);
       ++n;
     }

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "paintlab/calibration/cost_functions.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
 
@@ -479,26 +480,6 @@ std::optional<double> limb_onset(const ImageF& img, const CameraModel& camera, c
 
 // ---- cone fit ----
 
-struct ConeCost {
-  Vec3 ray;
-  Vec3 d0, e1, e2;
-  double weight;  // focal length / std (px per rad / px)
-  template <class T>
-  bool operator()(const T* ab, const T* alpha, T* res) const {
-    using std::atan2;
-    using std::sqrt;
-    const T dx = T(d0.x()) + ab[0] * T(e1.x()) + ab[1] * T(e2.x());
-    const T dy = T(d0.y()) + ab[0] * T(e1.y()) + ab[1] * T(e2.y());
-    const T dz = T(d0.z()) + ab[0] * T(e1.z()) + ab[1] * T(e2.z());
-    const T cx = T(ray.y()) * dz - T(ray.z()) * dy;
-    const T cy = T(ray.z()) * dx - T(ray.x()) * dz;
-    const T cz = T(ray.x()) * dy - T(ray.y()) * dx;
-    const T dot = T(ray.x()) * dx + T(ray.y()) * dy + T(ray.z()) * dz;
-    const T angle = atan2(sqrt(cx * cx + cy * cy + cz * cz), dot);
-    res[0] = (angle - alpha[0]) * T(weight);
-    return true;
-  }
-};
 
 // The cone's axis is d0 + a e1 + b e2 (normalised) around a start axis d0.
 struct Cone {
@@ -526,7 +507,7 @@ Cone fit_cone(const std::vector<Vec3>& rays, const std::vector<double>& weights,
   ceres::Problem problem;
   for (std::size_t i = 0; i < rays.size(); ++i)
     problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<ConeCost, 1, 2, 1>(new ConeCost{rays[i], d0, c.e1, c.e2, weights[i]}),
+        SilhouetteConeCost::Create({rays[i], d0, c.e1, c.e2, weights[i]}),
         new ceres::HuberLoss(3.0), ab, &alpha);
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;

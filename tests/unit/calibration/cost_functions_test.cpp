@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <array>
 #include <cmath>
 #include <memory>
@@ -12,6 +14,7 @@
 #include <vector>
 
 #include "jacobian_check.h"
+#include "paintlab/calibration/camera_model.h"
 #include "test_util.h"
 
 namespace paintlab::calib {
@@ -33,6 +36,81 @@ TEST(SaddleCost, JacobianMatchesCentralDifferences) {
                                                  0.4,  0.03,  0.01, -0.012, 0.006, 0.004};
     test::expect_jacobians_match_central_differences(*cost, {p.data()}, 1e-7);
   }
+}
+
+
+TEST(ReprojectionCost, MatchesTheCameraModelAndItsJacobianCentralDifferences) {
+  CameraModel cam;
+  cam.K << 2400.0, 0.0, 690.0, 0.0, 2410.0, 505.0, 0.0, 0.0, 1.0;
+  // Tangential terms larger than a real lens's: the central differences step with each
+  // parameter (1e-6 of it), and a step of 1e-9 would drown in the rounding of the pixel values.
+  cam.dist = {-0.12, 0.35, 0.012, -0.008, -0.4};
+  const Vec3 rot(0.21, -0.34, 0.05);  // angle-axis, board -> camera
+  const Vec3 t(-0.03, 0.02, 0.9);
+  const Vec3 X(0.25, 0.18, 0.0);  // a board corner far off the axis: every distortion term counts
+  const Vec3 p_cam = Eigen::AngleAxisd(rot.norm(), rot.normalized()) * X + t;
+  const Vec2 px = cam.project(p_cam);
+  std::array<double, 9> in = {cam.fx(), cam.fy(), cam.cx(), cam.cy(), cam.dist[0], cam.dist[1], cam.dist[2],
+                              cam.dist[3], cam.dist[4]};
+  std::array<double, 6> pose = {rot.x(), rot.y(), rot.z(), t.x(), t.y(), t.z()};
+  // Observed 0.3 px right of and 0.2 px above the projection: the residual says so.
+  const std::unique_ptr<ceres::CostFunction> cost(ReprojectionCost::Create(X.x(), X.y(), px.x() + 0.3, px.y() - 0.2));
+  double r[2];
+  const double* blocks[2] = {in.data(), pose.data()};
+  ASSERT_TRUE(cost->Evaluate(blocks, r, nullptr));
+  EXPECT_NEAR(r[0], -0.3, 1e-8);
+  EXPECT_NEAR(r[1], 0.2, 1e-8);
+  test::expect_jacobians_match_central_differences(*cost, {in.data(), pose.data()}, 1e-6);
+}
+
+TEST(SilhouetteConeCost, ResidualIsTheAngleOffTheConeInStdsAndItsJacobianCentralDifferences) {
+  const Vec3 d0 = Vec3::UnitZ(), e1 = Vec3::UnitX(), e2 = Vec3::UnitY();
+  const Vec3 ray = Vec3(0.06, 0.08, 1.0).normalized();  // 0.0997 rad off the z axis
+  const double off = std::atan2(std::hypot(0.06, 0.08), 1.0);
+  const std::unique_ptr<ceres::CostFunction> cost(SilhouetteConeCost::Create({ray, d0, e1, e2, 2000.0}));
+  double ab[2] = {0.0, 0.0}, alpha = 0.08, r = 0.0;
+  const double* blocks[2] = {ab, &alpha};
+  ASSERT_TRUE(cost->Evaluate(blocks, &r, nullptr));
+  EXPECT_NEAR(r, (off - 0.08) * 2000.0, 1e-9);
+  // The axis tilted onto the ray: the ray is 0 rad off the axis.
+  ab[0] = 0.06;
+  ab[1] = 0.08;
+  ASSERT_TRUE(cost->Evaluate(blocks, &r, nullptr));
+  EXPECT_NEAR(r, -0.08 * 2000.0, 1e-6);
+  ab[0] = 0.02;
+  ab[1] = -0.01;
+  test::expect_jacobians_match_central_differences(*cost, {ab, &alpha}, 1e-6);
+}
+
+TEST(LedCircleCost, ZeroWhereTheLedIsAndItsJacobianCentralDifferences) {
+  // A sphere 1.2 m in front of the camera, the table axis roughly up (-y in the camera frame),
+  // the LED on a 0.6 m arm 0.05 m above the sphere's centre, seen at table angle 40 deg.
+  const Vec3 centre(0.01, -0.02, 1.2);
+  const Vec3 a0 = Vec3(0.02, -1.0, -0.05).normalized();
+  const Vec3 e1 = a0.unitOrthogonal(), e2 = a0.cross(e1);
+  const double R = 0.6, h = 0.05, zero = 0.01, angle = 0.7;
+  const Vec3 x = (-centre - (-centre).dot(a0) * a0).normalized();
+  const Vec3 y = a0.cross(x);
+  const Vec3 led = centre + R * (std::cos(angle + zero) * x + std::sin(angle + zero) * y) + h * a0;
+  const Vec3 point = centre + 0.04 * Vec3(0.3, -0.2, -1.0).normalized();  // on the 40 mm sphere
+  const Vec3 dir = (led - point).normalized();
+  const Vec3 t1 = dir.unitOrthogonal(), t2 = dir.cross(t1);
+  const std::unique_ptr<ceres::CostFunction> cost(
+      LedCircleCost::Create({point, dir, t1, t2, angle, centre, a0, e1, e2}));
+  double ab[2] = {0.0, 0.0}, uv[2] = {0.0, 0.0}, rhz[3] = {R, h, zero}, r[2];
+  const double* blocks[3] = {ab, uv, rhz};
+  ASSERT_TRUE(cost->Evaluate(blocks, r, nullptr));
+  EXPECT_NEAR(r[0], 0.0, 1e-12);
+  EXPECT_NEAR(r[1], 0.0, 1e-12);
+  // The arm 0.1 deg further round: the direction moves by about R sin(0.1 deg) / |L - p|.
+  rhz[2] = zero + 0.1 * M_PI / 180.0;
+  ASSERT_TRUE(cost->Evaluate(blocks, r, nullptr));
+  EXPECT_NEAR(std::hypot(r[0], r[1]), 0.6 * std::sin(0.1 * M_PI / 180.0) / (led - point).norm(), 2e-5);
+  ab[0] = 0.01;
+  ab[1] = -0.02;
+  uv[0] = 0.003;
+  uv[1] = -0.002;
+  test::expect_jacobians_match_central_differences(*cost, {ab, uv, rhz}, 1e-6);
 }
 
 }  // namespace
