@@ -102,9 +102,8 @@ class SimStage final : public acq::Stage {
       poses_ = sim::chessboard_poses(w.camera(), cb, count, w.config().seed);
     board_cols_ = board.cols;
     // Lit so that white reaches half the full well in 10 ms at the image centre.
-    const double g = w.sensor().electrons_per_s_per_radiance(w.camera().width() / 2, w.camera().height() / 2);
     sim::PlaneLighting light;
-    light.irradiance_w_m2 = 0.5 * w.config().sensor.full_well_e / (g * 0.01) * kPi / cb.white_albedo;
+    light.irradiance_w_m2 = w.irradiance_for_fill(0.5, 0.01, cb.white_albedo);
     auto radiance = std::make_shared<ImageF>(
         sim::render_chessboard(w.camera(), cb, poses_[static_cast<std::size_t>(index)], light, 16, 1, 0));
     rig_.camera()->set_source(static_scene(w, std::move(radiance)));
@@ -141,8 +140,7 @@ class SimStage final : public acq::Stage {
         break;
       case acq::LensView::Diffuser: {
         // Bright enough that the image centre reaches half the full well in 10 ms.
-        const double g = w.sensor().electrons_per_s_per_radiance(w.camera().width() / 2, w.camera().height() / 2);
-        const double level = 0.5 * w.config().sensor.full_well_e / (g * 0.01);
+        const double level = w.radiance_for_fill(0.5, 0.01);
         rig_.camera()->set_source(static_scene(w, std::make_shared<ImageF>(sim::uniform_field(w.camera(), level))));
         break;
       }

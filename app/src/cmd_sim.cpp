@@ -76,24 +76,21 @@ int run_render(const RenderArgs& a) {
     sim::Chessboard board;
     auto poses = sim::chessboard_poses(world.camera(), board, a.view + 1, world.config().seed);
     // Lit so that white squares reach about half of the full well at this exposure.
-    double g = world.sensor().electrons_per_s_per_radiance(world.camera().width() / 2, world.camera().height() / 2);
     sim::PlaneLighting light;
-    light.irradiance_w_m2 = 0.5 * world.config().sensor.full_well_e / (g * exposure_s) * kPi / board.white_albedo;
+    light.irradiance_w_m2 = world.irradiance_for_fill(0.5, exposure_s, board.white_albedo);
     radiance = sim::render_chessboard(world.camera(), board, poses.back(), light, 16, channels, a.threads);
     what = fmt::format("{}x{} chessboard of {:g} mm squares, view {}", board.cols, board.rows, board.square_m * 1e3,
                        a.view);
   } else if (a.scene == "charuco") {
     sim::CharucoBoard board;
     auto poses = sim::charuco_poses(world.camera(), board, a.view + 1, world.config().seed);
-    double g = world.sensor().electrons_per_s_per_radiance(world.camera().width() / 2, world.camera().height() / 2);
     sim::PlaneLighting light;
-    light.irradiance_w_m2 = 0.5 * world.config().sensor.full_well_e / (g * exposure_s) * kPi / board.white_albedo;
+    light.irradiance_w_m2 = world.irradiance_for_fill(0.5, exposure_s, board.white_albedo);
     radiance = sim::render_charuco(world.camera(), board, poses.back(), light, 16, channels, a.threads);
     what = fmt::format("{}x{} ChArUco board of {:g} mm squares, {:g} mm DICT_6X6_250 markers, view {}",
                        board.squares_x, board.squares_y, board.square_m * 1e3, board.marker_m * 1e3, a.view);
   } else if (a.scene == "flat") {
-    double g = world.sensor().electrons_per_s_per_radiance(world.camera().width() / 2, world.camera().height() / 2);
-    double level = 0.5 * world.config().sensor.full_well_e / (g * exposure_s);
+    const double level = world.radiance_for_fill(0.5, exposure_s);
     radiance = sim::uniform_field(world.camera(), level, channels);
     what = fmt::format("uniform field of {:.4g} W sr^-1 m^-2 (half the full well at the centre)", level);
   } else {

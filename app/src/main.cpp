@@ -9,6 +9,19 @@
 #include "paintlab/core/progress.h"
 #include "paintlab/core/version.h"
 
+namespace {
+
+// One line on stderr for a paintlab error (an option error names the flag the user typed),
+// and the exit code it stands for.
+int report(const paintlab::Error& e) {
+  const auto* option = dynamic_cast<const paintlab::OptionError*>(&e);
+  std::fprintf(stderr, "paintlab: error: %s\n",
+               option ? paintlab::app::option_error_message(*option).c_str() : e.what());
+  return paintlab::exit_code(e);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace paintlab;
   CLI::App app{
@@ -54,12 +67,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     app.exit(e);
     return kExitBadInput;
-  } catch (const OptionError& e) {
-    std::fprintf(stderr, "paintlab: error: %s\n", app::option_error_message(e).c_str());
-    return kExitBadInput;
   } catch (const Error& e) {
-    std::fprintf(stderr, "paintlab: error: %s\n", e.what());
-    return exit_code(e);
+    return report(e);
   }
 
   init_logging(quiet ? -1 : verbose);
@@ -71,12 +80,8 @@ int main(int argc, char** argv) {
   }
   try {
     return (*run)();
-  } catch (const OptionError& e) {
-    std::fprintf(stderr, "paintlab: error: %s\n", app::option_error_message(e).c_str());
-    return kExitBadInput;
   } catch (const Error& e) {
-    std::fprintf(stderr, "paintlab: error: %s\n", e.what());
-    return exit_code(e);
+    return report(e);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "paintlab: internal error: %s\n", e.what());
     return kExitFailed;

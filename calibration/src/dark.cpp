@@ -209,17 +209,15 @@ void DarkFrame::save(const fs::path& json_path) const {
 }
 
 DarkFrame DarkFrame::load(const fs::path& json_path) {
-  const Json j = read_json_file(json_path);
-  const std::string where = json_path.string();
+  const MapRecord rec = read_map_record(json_path);
+  const Json& j = rec.json;
+  const std::string& where = rec.where;
+  const int W = rec.width, H = rec.height, C = rec.channels;
   DarkFrame d;
-  if (j.contains("provenance")) d.provenance = Provenance::from_json(j.at("provenance"), where);
+  d.provenance = rec.provenance;
+  d.frame_count = rec.frame_count;
+  d.exposures_s = rec.exposures_s;
   d.bit_depth = json_get<int>(j, "bit_depth", where);
-  const int W = json_get<int>(j, "width", where);
-  const int H = json_get<int>(j, "height", where);
-  const int C = json_get<int>(j, "channels", where);
-  if (W <= 0 || H <= 0 || (C != 1 && C != 3)) throw DataError(where + ": bad width, height or channels");
-  d.frame_count = json_get<int>(j, "frame_count", where);
-  d.exposures_s = json_get<std::vector<double>>(j, "exposures_s", where);
   d.mean_bias_dn = json_get<double>(j, "mean_bias_dn", where);
   d.mean_rate_dn_per_s = json_get<double>(j, "mean_rate_dn_per_s", where);
   if (j.contains("read_noise_dn") && !j.at("read_noise_dn").is_null()) {

@@ -207,16 +207,14 @@ void FlatField::save(const fs::path& json_path) const {
 }
 
 FlatField FlatField::load(const fs::path& json_path) {
-  const Json j = read_json_file(json_path);
-  const std::string where = json_path.string();
+  const MapRecord rec = read_map_record(json_path);
+  const Json& j = rec.json;
+  const std::string& where = rec.where;
+  const int W = rec.width, H = rec.height, C = rec.channels;
   FlatField f;
-  if (j.contains("provenance")) f.provenance = Provenance::from_json(j.at("provenance"), where);
-  const int W = json_get<int>(j, "width", where);
-  const int H = json_get<int>(j, "height", where);
-  const int C = json_get<int>(j, "channels", where);
-  if (W <= 0 || H <= 0 || (C != 1 && C != 3)) throw DataError(where + ": bad width, height or channels");
-  f.frame_count = json_get<int>(j, "frame_count", where);
-  f.exposures_s = json_get<std::vector<double>>(j, "exposures_s", where);
+  f.provenance = rec.provenance;
+  f.frame_count = rec.frame_count;
+  f.exposures_s = rec.exposures_s;
   f.corner_ratio = json_get<double>(j, "corner_ratio", where);
   f.centre_to_corner = json_get<double>(j, "centre_to_corner", where);
   f.prnu_rel = json_get<double>(j, "prnu_rel", where);

@@ -38,6 +38,22 @@ WrittenMaps write_map_file(const fs::path& json_path, ExrImage maps, const std::
   return {exr_path.filename().string(), sha256_file(exr_path)};
 }
 
+MapRecord read_map_record(const fs::path& json_path) {
+  MapRecord r;
+  r.json = read_json_file(json_path);
+  r.where = json_path.string();
+  const Json& j = r.json;
+  if (j.contains("provenance")) r.provenance = Provenance::from_json(j.at("provenance"), r.where);
+  r.width = json_get<int>(j, "width", r.where);
+  r.height = json_get<int>(j, "height", r.where);
+  r.channels = json_get<int>(j, "channels", r.where);
+  if (r.width <= 0 || r.height <= 0 || (r.channels != 1 && r.channels != 3))
+    throw DataError(r.where + ": bad width, height or channels");
+  r.frame_count = json_get<int>(j, "frame_count", r.where);
+  r.exposures_s = json_get<std::vector<double>>(j, "exposures_s", r.where);
+  return r;
+}
+
 ExrImage read_map_file(const fs::path& json_path, const Json& j, int width, int height) {
   const std::string where = json_path.string();
   if (!j.contains("maps")) throw DataError(where + ": missing key 'maps'");

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 
+#include "paintlab/calibration/record.h"
 #include "paintlab/core/image.h"
 #include "paintlab/core/image_io.h"
 #include "paintlab/core/json.h"
@@ -27,6 +28,20 @@ struct WrittenMaps {
 // Writes `maps` (its "paintlab.kind" attribute set to `kind`) beside `json_path` with
 // extension .exr.
 WrittenMaps write_map_file(const std::filesystem::path& json_path, ExrImage maps, const std::string& kind);
+
+// What dark.json and flat.json share: the file, its provenance, the maps' size and the frames
+// they were made from.
+struct MapRecord {
+  Json json;
+  std::string where;  // the JSON file, for messages
+  Provenance provenance;
+  int width = 0, height = 0, channels = 0;
+  int frame_count = 0;
+  std::vector<double> exposures_s;
+};
+// Reads `json_path`: DataError naming it when a key is missing or the size is not positive
+// with 1 or 3 channels.
+MapRecord read_map_record(const std::filesystem::path& json_path);
 
 // Reads the maps `j["maps"]` names beside `json_path`: DataError naming the JSON when the key,
 // the file or its recorded SHA-256 is missing or wrong, or the maps are not width x height.

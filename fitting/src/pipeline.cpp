@@ -121,23 +121,20 @@ void set_termination(FitOutcome& out, const FitSummary& s) {
 FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noise_variance, const FitRequest& request,
                      const Json& input) {
   FitOutcome out;
+  auto run = [&](const auto& options, auto fit, auto report) {
+    const FitData data = prepare_fit_data(table, options.data, noise_variance);
+    const auto f = fit(data, options);
+    out.fit = f.to_json(request.name);
+    out.report = report(f);
+    set_termination(out, f.summary);
+  };
   switch (request.model) {
-    case FitModel::CookTorrance: {
-      const FitData data = prepare_fit_data(table, request.cook_torrance.data, noise_variance);
-      const CookTorranceFit f = fit_cook_torrance(data, request.cook_torrance);
-      out.fit = f.to_json(request.name);
-      out.report = ct_report(f);
-      set_termination(out, f.summary);
+    case FitModel::CookTorrance:
+      run(request.cook_torrance, fit_cook_torrance, ct_report);
       break;
-    }
-    case FitModel::AxfCarPaint: {
-      const FitData data = prepare_fit_data(table, request.axf_carpaint.data, noise_variance);
-      const AxfFit f = fit_axf_carpaint(data, request.axf_carpaint);
-      out.fit = f.to_json(request.name);
-      out.report = axf_report(f);
-      set_termination(out, f.summary);
+    case FitModel::AxfCarPaint:
+      run(request.axf_carpaint, fit_axf_carpaint, axf_report);
       break;
-    }
   }
   Json in = input;
   in["coverage"] = coverage(table).to_json();

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 
 #include <fmt/format.h>
@@ -443,6 +444,15 @@ std::shared_ptr<const SimWorld::PaintState> SimWorld::make_paint_state(SimPaint 
   }
   st->paint = std::move(paint);
   return st;
+}
+
+double SimWorld::radiance_for_fill(double fill, double exposure_s) const {
+  const double g = sensor_->electrons_per_s_per_radiance(camera_->width() / 2, camera_->height() / 2);
+  return fill * config_.sensor.full_well_e / (g * exposure_s);
+}
+
+double SimWorld::irradiance_for_fill(double fill, double exposure_s, double albedo) const {
+  return radiance_for_fill(fill, exposure_s) * std::numbers::pi / albedo;
 }
 
 void SimWorld::set_paint(SimPaint paint) {

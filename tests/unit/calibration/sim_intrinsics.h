@@ -30,9 +30,8 @@ inline SimIntrinsicsRun run_sim_intrinsics(const sim::Chessboard& cb, const std:
   SimIntrinsicsRun run;
   run.truth = truth_camera(world);
   const BoardSpec board{cb.cols, cb.rows, cb.square_m};
-  const double g = world.sensor().electrons_per_s_per_radiance(run.truth.width_px / 2, run.truth.height_px / 2);
   sim::PlaneLighting light;
-  light.irradiance_w_m2 = 0.5 * world.config().sensor.full_well_e / (g * 0.01) * kPi / cb.white_albedo;
+  light.irradiance_w_m2 = world.irradiance_for_fill(0.5, 0.01, cb.white_albedo);
   std::vector<BoardImage> images;
   std::vector<std::vector<Vec2>> truth_corners;
   for (std::size_t k = 0; k < poses.size(); ++k) {

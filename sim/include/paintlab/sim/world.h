@@ -64,6 +64,12 @@ class SimWorld {
   const Sensor& sensor() const { return *sensor_; }
   VirtualClock& clock() { return clock_; }
 
+  // The scene radiance (W/(m^2 sr)) at which the image centre collects `fill` of the sensor's
+  // full well in `exposure_s`, and the irradiance (W/m^2) at which a Lambertian target of
+  // `albedo` shows that radiance: how bright a board, a diffuser or a flat field is lit.
+  double radiance_for_fill(double fill, double exposure_s) const;
+  double irradiance_for_fill(double fill, double exposure_s, double albedo) const;
+
   // The sphere's paint (default: grey Lambertian, albedo 0.5). Building the flake field of
   // a sparkling paint takes a moment; rendering threads keep the paint they started with.
   void set_paint(SimPaint paint);
