@@ -93,85 +93,6 @@ LightModel LightModel::from_json(const Json& j, const std::string& where) {
 
 namespace {
 
-struct SpherePixel {
-  bool on_sphere = false;
-  bool data = false;  // compared with the model (on the sphere, away from the silhouette)
-  double value = 0;
-  Vec3 normal = Vec3::Zero();
-  Vec3 wo = Vec3::Zero();  // towards the camera
-  Vec3 point = Vec3::Zero();
-};
-
-// Lobe model around a specular normal n_s = normalize(n0 + u e1 + v e2) on a square grid
-// of pixels, blurred by a separable Gaussian (taps exp(-d^2 / 2 sigma^2) at whole pixels,
-// normalised; radius kr). Parameters: (u, v), log m, A, background, log sigma.
-struct HighlightCost {
-  const std::vector<SpherePixel>* grid;
-  int side;
-  int kr;  // kernel radius (px); 0: no blur
-  Vec3 centre, n0, e1, e2;
-  double radius, led_distance;
-  template <class T>
-  bool operator()(const T* uv, const T* logm, const T* amp, const T* bg, const T* logblur, T* res) const {
-    using std::exp;
-    using std::sqrt;
-    std::vector<T> kernel;
-    if (kr > 0) {
-      const T inv2s2 = T(0.5) * exp(T(-2.0) * logblur[0]);
-      T sum(0.0);
-      for (int d = -kr; d <= kr; ++d) {
-        kernel.push_back(exp(-T(static_cast<double>(d * d)) * inv2s2));
-        sum += kernel.back();
-      }
-      for (T& w : kernel) w /= sum;
-    }
-    Eigen::Matrix<T, 3, 1> ns = n0.cast<T>() + uv[0] * e1.cast<T>() + uv[1] * e2.cast<T>();
-    ns /= sqrt(ns.squaredNorm());
-    const Eigen::Matrix<T, 3, 1> X = centre.cast<T>() + T(radius) * ns;
-    Eigen::Matrix<T, 3, 1> v = -X;
-    v /= sqrt(v.squaredNorm());
-    const Eigen::Matrix<T, 3, 1> r = T(2.0) * ns.dot(v) * ns - v;
-    const Eigen::Matrix<T, 3, 1> L = X + T(led_distance) * r;
-    const T m2 = exp(T(2.0) * logm[0]);
-    const std::size_t n = grid->size();
-    std::vector<T> model(n), tmp(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const SpherePixel& p = (*grid)[i];
-      if (!p.on_sphere) {
-        model[i] = bg[0];
-        continue;
-      }
-      Eigen::Matrix<T, 3, 1> wi = L - p.point.cast<T>();
-      wi /= sqrt(wi.squaredNorm());
-      Eigen::Matrix<T, 3, 1> h = wi + p.wo.cast<T>();
-      h /= sqrt(h.squaredNorm());
-      const T c = h.dot(p.normal.cast<T>());
-      const T c2 = c * c;
-      const T tan2 = (T(1.0) - c2) / c2;
-      model[i] = amp[0] * exp(-tan2 / m2) / T(p.normal.dot(p.wo)) + bg[0];
-    }
-    const int k = kr;
-    if (k > 0) {
-      for (int y = 0; y < side; ++y)
-        for (int x = 0; x < side; ++x) {
-          T s(0.0);
-          for (int d = -k; d <= k; ++d) s += kernel[static_cast<std::size_t>(d + k)] * model[static_cast<std::size_t>(y * side + std::clamp(x + d, 0, side - 1))];
-          tmp[static_cast<std::size_t>(y * side + x)] = s;
-        }
-      for (int y = 0; y < side; ++y)
-        for (int x = 0; x < side; ++x) {
-          T s(0.0);
-          for (int d = -k; d <= k; ++d) s += kernel[static_cast<std::size_t>(d + k)] * tmp[static_cast<std::size_t>(std::clamp(y + d, 0, side - 1) * side + x)];
-          model[static_cast<std::size_t>(y * side + x)] = s;
-        }
-    }
-    std::size_t j = 0;
-    for (std::size_t i = 0; i < n; ++i)
-      if ((*grid)[i].data) res[j++] = model[i] - T((*grid)[i].value);
-    return true;
-  }
-};
-
 Vec3 mirror(const Vec3& n, const Vec3& v) { return 2.0 * n.dot(v) * n - v; }
 
 }  // namespace
@@ -307,8 +228,7 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
   double logm = std::log(std::clamp(r_half / (0.83 * rho_px * cos_o), 1e-3, 0.3));
   double amp = (best - level) * cos_o, bg = level;
   double logblur = std::log(options.fit_blur ? blur_start : std::max(blur, 0.05));
-  auto* cost = new ceres::AutoDiffCostFunction<HighlightCost, ceres::DYNAMIC, 2, 1, 1, 1, 1>(
-      new HighlightCost{&grid, side, kr, C, n0, e1, e2, R, led_distance}, n_data);
+  ceres::CostFunction* cost = HighlightCost::Create({&grid, side, kr, C, n0, e1, e2, R, led_distance}, n_data);
   ceres::Problem problem;
   problem.AddResidualBlock(cost, nullptr, uv, &logm, &amp, &bg, &logblur);
   if (options.fit_blur) {

@@ -91,64 +91,6 @@ double limb_profile(double x, double* derivative) {
 
 namespace {
 
-double limb_h(double x) { return limb_profile(x); }
-template <class T, int N>
-ceres::Jet<T, N> limb_h(const ceres::Jet<T, N>& x) {
-  double d = 0.0;
-  const double v = limb_profile(x.a, &d);
-  return ceres::Jet<T, N>(v, d * x.v);
-}
-
-// Radial profile of one sector: value I at radius r; t = e - r is the distance inside the
-// edge. F(t) = b + (c0 - b) Phi(t/s) + c1 sqrt(s) H(t/s) + c2 s (x Phi(x) + phi(x)).
-// Parameters: e, log s, b, c0, c1, c2.
-// With the pixel's box: a pixel integrates the image over its square, which seen along the
-// profile's direction phi is a box of width |cos phi| convolved with one of width |sin phi|
-// (the blur is that times the optics' Gaussian of width s). The box is applied by 3 x 3
-// Gauss-Legendre nodes along the profile.
-struct PixelBox {
-  int n = 1;
-  double offset[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-  double weight[9] = {1, 0, 0, 0, 0, 0, 0, 0, 0};
-  static PixelBox along(double phi) {
-    PixelBox b;
-    const double g[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)}, w[3] = {5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0};
-    const double a = 0.5 * std::abs(std::cos(phi)), c = 0.5 * std::abs(std::sin(phi));
-    b.n = 9;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) {
-        b.offset[3 * i + j] = a * g[i] + c * g[j];
-        b.weight[3 * i + j] = w[i] * w[j];
-      }
-    return b;
-  }
-};
-
-struct ProfileCost {
-  const std::vector<double>* r;
-  const std::vector<double>* v;
-  PixelBox box;
-  template <class T>
-  bool operator()(const T* p, T* res) const {
-    using std::erf;
-    using std::exp;
-    using std::sqrt;
-    const T s = exp(p[1]);
-    const T sq = sqrt(s);
-    for (std::size_t i = 0; i < r->size(); ++i) {
-      T acc(0.0);
-      for (int k = 0; k < box.n; ++k) {
-        const T x = (p[0] - T((*r)[i]) + T(box.offset[k])) / s;
-        const T Phi = T(0.5) * (T(1.0) + erf(x * T(M_SQRT1_2)));
-        const T phi = exp(T(-0.5) * x * x) * T(1.0 / std::sqrt(2.0 * kPi));
-        acc += T(box.weight[k]) * ((p[3] - p[2]) * Phi + p[4] * sq * limb_h(x) + p[5] * s * (x * Phi + phi));
-      }
-      res[i] = p[2] + acc - T((*v)[i]);
-    }
-    return true;
-  }
-};
-
 double profile_value(const double* p, double t) {
   const double s = std::exp(p[1]), x = t / s;
   const double Phi = 0.5 * (1.0 + std::erf(x * M_SQRT1_2));
@@ -193,8 +135,7 @@ SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v
   }
   double p[6] = {e0, 0.0, b0, c00, c1_fixed ? *c1_fixed : 0.0, 0.0};
   const int n = static_cast<int>(r.size());
-  auto* cost = new ceres::AutoDiffCostFunction<ProfileCost, ceres::DYNAMIC, 6>(
-      new ProfileCost{&r, &v, o.pixel_box ? PixelBox::along(phi) : PixelBox{}}, n);
+  ceres::CostFunction* cost = EdgeProfileCost::Create(&r, &v, o.pixel_box ? PixelBox::along(phi) : PixelBox{});
   std::unique_ptr<ceres::CostFunction> owned(cost);
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;

@@ -113,5 +113,67 @@ TEST(LedCircleCost, ZeroWhereTheLedIsAndItsJacobianCentralDifferences) {
   test::expect_jacobians_match_central_differences(*cost, {ab, uv, rhz}, 1e-6);
 }
 
+
+TEST(EdgeProfileCost, AnErfEdgeWithoutALimbAndItsJacobianCentralDifferencesAcrossTheLimbTable) {
+  // Radii from 8 px inside to 8 px outside the edge at 50 px: x = t / s covers the limb
+  // table and both of its tails.
+  std::vector<double> r, v;
+  for (double x = 42.0; x <= 58.0; x += 0.37) {
+    r.push_back(x);
+    v.push_back(0.0);
+  }
+  // c1 = c2 = 0 and no pixel box: a Gaussian-blurred step from c0 inside to b outside.
+  double p[6] = {50.0, std::log(1.3), 0.1, 0.8, 0.0, 0.0};
+  const std::unique_ptr<ceres::CostFunction> step(EdgeProfileCost::Create(&r, &v, PixelBox{}));
+  std::vector<double> res(r.size());
+  const double* blocks[1] = {p};
+  ASSERT_TRUE(step->Evaluate(blocks, res.data(), nullptr));
+  for (std::size_t i = 0; i < r.size(); ++i)
+    EXPECT_NEAR(res[i], 0.1 + 0.7 * 0.5 * (1.0 + std::erf((50.0 - r[i]) / 1.3 / std::sqrt(2.0))), 1e-12) << r[i];
+  // The limb term (c1, whose H has a hand-written derivative) and the slope term, over a
+  // pixel box at 0.4 rad: every column against central differences.
+  p[4] = 0.05;
+  p[5] = -0.01;
+  const std::unique_ptr<ceres::CostFunction> cost(EdgeProfileCost::Create(&r, &v, PixelBox::along(0.4)));
+  test::expect_jacobians_match_central_differences(*cost, {p}, 1e-6);
+}
+
+
+TEST(HighlightCost, TheLobePeaksWhereTheMirrorNormalIsAndItsJacobianCentralDifferences) {
+  // A 9 x 9 window on a 20 mm glossy sphere 0.5 m in front of the camera, centred on the
+  // point facing the camera; the corner pixels are off the sphere.
+  const Vec3 C(0.0, 0.0, 0.5);
+  const double R = 0.02;
+  const Vec3 n0 = (-C).normalized(), e1 = n0.unitOrthogonal(), e2 = n0.cross(e1);
+  const int side = 9;
+  std::vector<SpherePixel> grid(side * side);
+  int data = 0;
+  for (int j = 0; j < side; ++j)
+    for (int i = 0; i < side; ++i) {
+      SpherePixel& p = grid[static_cast<std::size_t>(j * side + i)];
+      const bool corner = (i == 0 || i == side - 1) && (j == 0 || j == side - 1);
+      p.on_sphere = !corner;
+      p.data = true;
+      ++data;
+      p.normal = (n0 + 0.01 * (i - 4) * e1 + 0.01 * (j - 4) * e2).normalized();
+      p.point = C + R * p.normal;
+      p.wo = (-p.point).normalized();
+    }
+  double uv[2] = {0.0, 0.0}, logm = std::log(0.1), amp = 2.0, bg = 0.1, logblur = std::log(1.3);
+  const double* blocks[5] = {uv, &logm, &amp, &bg, &logblur};
+  std::vector<double> r(grid.size());
+  {
+    const std::unique_ptr<ceres::CostFunction> sharp(HighlightCost::Create({&grid, side, 0, C, n0, e1, e2, R, 0.6}, data));
+    ASSERT_TRUE(sharp->Evaluate(blocks, r.data(), nullptr));
+    EXPECT_NEAR(r[4 * side + 4], amp + bg, 1e-9);  // the mirror normal: tan(theta_h) = 0, n . wo = 1
+    EXPECT_NEAR(r[0], bg, 1e-12);                  // off the sphere: the background
+    EXPECT_LT(r[4 * side + 8], r[4 * side + 4]);   // falls off away from the peak
+  }
+  uv[0] = 0.003;
+  uv[1] = -0.002;
+  const std::unique_ptr<ceres::CostFunction> blurred(HighlightCost::Create({&grid, side, 2, C, n0, e1, e2, R, 0.6}, data));
+  test::expect_jacobians_match_central_differences(*blurred, {uv, &logm, &amp, &bg, &logblur}, 1e-6);
+}
+
 }  // namespace
 }  // namespace paintlab::calib

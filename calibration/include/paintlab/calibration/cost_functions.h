@@ -9,9 +9,12 @@
 #include <ceres/rotation.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
+#include "paintlab/calibration/sphere.h"
 #include "paintlab/core/geometry.h"
 
 namespace paintlab::calib {
@@ -43,6 +46,159 @@ class SaddleCost final : public ceres::CostFunction {
 
  private:
   const SaddleWindow* w_;
+};
+
+// limb_profile (sphere.h) for plain numbers and for Ceres' jets, with its own derivative.
+inline double limb_h(double x) { return limb_profile(x); }
+template <class T, int N>
+ceres::Jet<T, N> limb_h(const ceres::Jet<T, N>& x) {
+  double d = 0.0;
+  const double v = limb_profile(x.a, &d);
+  return ceres::Jet<T, N>(v, d * x.v);
+}
+
+// A pixel integrates the image over its square, which seen along a profile at angle phi is a
+// box of width |cos phi| convolved with one of width |sin phi|: 3 x 3 Gauss-Legendre nodes
+// along the profile (offsets in px, weights summing to 1). The default: one node, no box.
+struct PixelBox {
+  int n = 1;
+  double offset[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  double weight[9] = {1, 0, 0, 0, 0, 0, 0, 0, 0};
+  static PixelBox along(double phi) {
+    PixelBox b;
+    const double g[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)}, w[3] = {5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0};
+    const double a = 0.5 * std::abs(std::cos(phi)), c = 0.5 * std::abs(std::sin(phi));
+    b.n = 9;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        b.offset[3 * i + j] = a * g[i] + c * g[j];
+        b.weight[3 * i + j] = w[i] * w[j];
+      }
+    return b;
+  }
+};
+
+// The radial profile of one sector of the sphere's silhouette: values v at radii r (px);
+// t = e - r is the distance inside the edge and
+//   F(t) = b + (c0 - b) Phi(t/s) + c1 sqrt(s) H(t/s) + c2 s (x Phi(x) + phi(x)),  x = t/s,
+// H the limb profile (a sqrt onset blurred by a Gaussian of width s), averaged over the
+// pixel's box. Parameters: e, log s, b, c0, c1, c2. Residuals: F - v, one per sample.
+struct EdgeProfileCost {
+  const std::vector<double>* r;
+  const std::vector<double>* v;
+  PixelBox box;
+
+  template <class T>
+  bool operator()(const T* p, T* res) const {
+    using std::erf;
+    using std::exp;
+    using std::sqrt;
+    const T s = exp(p[1]);
+    const T sq = sqrt(s);
+    for (std::size_t i = 0; i < r->size(); ++i) {
+      T acc(0.0);
+      for (int k = 0; k < box.n; ++k) {
+        const T x = (p[0] - T((*r)[i]) + T(box.offset[k])) / s;
+        const T Phi = T(0.5) * (T(1.0) + erf(x * T(M_SQRT1_2)));
+        const T phi = exp(T(-0.5) * x * x) * T(1.0 / std::sqrt(2.0 * std::numbers::pi));
+        acc += T(box.weight[k]) * ((p[3] - p[2]) * Phi + p[4] * sq * limb_h(x) + p[5] * s * (x * Phi + phi));
+      }
+      res[i] = p[2] + acc - T((*v)[i]);
+    }
+    return true;
+  }
+  // `r` and `v` (same length) must outlive the cost function.
+  static ceres::CostFunction* Create(const std::vector<double>* r, const std::vector<double>* v, const PixelBox& box) {
+    return new ceres::AutoDiffCostFunction<EdgeProfileCost, ceres::DYNAMIC, 6>(new EdgeProfileCost{r, v, box},
+                                                                              static_cast<int>(r->size()));
+  }
+};
+
+// One pixel of a highlight window as the light fit sees it (camera frame).
+struct SpherePixel {
+  bool on_sphere = false;
+  bool data = false;  // compared with the model (on the sphere, away from the silhouette)
+  double value = 0;
+  Vec3 normal = Vec3::Zero();
+  Vec3 wo = Vec3::Zero();  // towards the camera
+  Vec3 point = Vec3::Zero();
+};
+
+// A highlight on a glossy sphere: a Beckmann lobe A exp(-tan^2(theta_h) / m^2) / (n . wo) +
+// background around the specular normal n_s = normalize(n0 + u e1 + v e2) (the LED at
+// `led_distance` along the mirror direction there), on a square grid of `side` x `side`
+// pixels, blurred by a separable Gaussian (taps exp(-d^2 / 2 sigma^2) at whole pixels,
+// normalised; radius kr, 0: no blur). Parameter blocks: (u, v), log m, A, background,
+// log sigma. Residuals: model - value at the grid's data pixels, in grid order.
+struct HighlightCost {
+  const std::vector<SpherePixel>* grid;
+  int side;
+  int kr;  // kernel radius (px); 0: no blur
+  Vec3 centre, n0, e1, e2;
+  double radius, led_distance;
+  template <class T>
+  bool operator()(const T* uv, const T* logm, const T* amp, const T* bg, const T* logblur, T* res) const {
+    using std::exp;
+    using std::sqrt;
+    std::vector<T> kernel;
+    if (kr > 0) {
+      const T inv2s2 = T(0.5) * exp(T(-2.0) * logblur[0]);
+      T sum(0.0);
+      for (int d = -kr; d <= kr; ++d) {
+        kernel.push_back(exp(-T(static_cast<double>(d * d)) * inv2s2));
+        sum += kernel.back();
+      }
+      for (T& w : kernel) w /= sum;
+    }
+    Eigen::Matrix<T, 3, 1> ns = n0.cast<T>() + uv[0] * e1.cast<T>() + uv[1] * e2.cast<T>();
+    ns /= sqrt(ns.squaredNorm());
+    const Eigen::Matrix<T, 3, 1> X = centre.cast<T>() + T(radius) * ns;
+    Eigen::Matrix<T, 3, 1> v = -X;
+    v /= sqrt(v.squaredNorm());
+    const Eigen::Matrix<T, 3, 1> r = T(2.0) * ns.dot(v) * ns - v;
+    const Eigen::Matrix<T, 3, 1> L = X + T(led_distance) * r;
+    const T m2 = exp(T(2.0) * logm[0]);
+    const std::size_t n = grid->size();
+    std::vector<T> model(n), tmp(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const SpherePixel& p = (*grid)[i];
+      if (!p.on_sphere) {
+        model[i] = bg[0];
+        continue;
+      }
+      Eigen::Matrix<T, 3, 1> wi = L - p.point.cast<T>();
+      wi /= sqrt(wi.squaredNorm());
+      Eigen::Matrix<T, 3, 1> h = wi + p.wo.cast<T>();
+      h /= sqrt(h.squaredNorm());
+      const T c = h.dot(p.normal.cast<T>());
+      const T c2 = c * c;
+      const T tan2 = (T(1.0) - c2) / c2;
+      model[i] = amp[0] * exp(-tan2 / m2) / T(p.normal.dot(p.wo)) + bg[0];
+    }
+    const int k = kr;
+    if (k > 0) {
+      for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x) {
+          T s(0.0);
+          for (int d = -k; d <= k; ++d) s += kernel[static_cast<std::size_t>(d + k)] * model[static_cast<std::size_t>(y * side + std::clamp(x + d, 0, side - 1))];
+          tmp[static_cast<std::size_t>(y * side + x)] = s;
+        }
+      for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x) {
+          T s(0.0);
+          for (int d = -k; d <= k; ++d) s += kernel[static_cast<std::size_t>(d + k)] * tmp[static_cast<std::size_t>(std::clamp(y + d, 0, side - 1) * side + x)];
+          model[static_cast<std::size_t>(y * side + x)] = s;
+        }
+    }
+    std::size_t j = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      if ((*grid)[i].data) res[j++] = model[i] - T((*grid)[i].value);
+    return true;
+  }
+  // `grid` must outlive the cost function; `residuals`: its data pixels.
+  static ceres::CostFunction* Create(const HighlightCost& c, int residuals) {
+    return new ceres::AutoDiffCostFunction<HighlightCost, ceres::DYNAMIC, 2, 1, 1, 1, 1>(new HighlightCost(c), residuals);
+  }
 };
 
 // Reprojection of one chessboard corner (X, Y, 0) in board coordinates, observed at (u, v)
