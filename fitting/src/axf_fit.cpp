@@ -12,6 +12,7 @@
 #include <random>
 
 #include "fit_solver.h"
+#include "paintlab/fitting/cost_functions.h"
 #include "fit_util.h"
 #include "paintlab/brdf/cook_torrance.h"
 #include "paintlab/brdf/paint.h"
@@ -25,23 +26,6 @@ namespace {
 
 constexpr double kAxfHalfPi = std::numbers::pi / 2.0;
 constexpr int kMaxAxfLobes = 3;
-constexpr double kMinAxfModelValue = 1e-30;
-
-// One bin of the achromatic stage: directions at the mean coordinates, the mean of the
-// channels, its log target and weight.
-struct AchroMember {
-  brdf::Vec3 wi = brdf::Vec3::UnitZ(), wo = brdf::Vec3::UnitZ();
-  double weight = 1.0;
-};
-struct AchroBin {
-  const FitBin* src = nullptr;
-  const AchroMember* members = nullptr;  // the fit point's member bins (FitData::members)
-  std::uint32_t member_count = 0;
-  double value = 0;      // mean of R, G, B
-  double target = 0;     // log(value) + delta-method correction
-  double inv_sigma = 0;  // 1 / sigma of log(value)
-  double noise = 0;      // sigma of log(value) from the noise alone
-};
 
 // Parameters in two blocks: (eta, a, then per lobe s, alpha) and the lobes' F0 (held
 // fixed unless AxfFitOptions::fit_f0).
@@ -58,35 +42,8 @@ struct AxfVector {
   double alpha(int k) const { return main[3 + 2 * k]; }
 };
 
-// The achromatic model of a chunk of bins, for autodiff over all parameters.
-template <int K>
-struct AxfChunk {
-  const std::vector<const AchroBin*>* bins;
-  template <class T>
-  bool operator()(const T* p, const T* f0, T* residuals) const {
-    using std::log;
-    for (std::size_t q = 0; q < bins->size(); ++q) {
-      const AchroBin& b = *(*bins)[q];
-      T f(0.0);
-      for (std::uint32_t mi = 0; mi < b.member_count; ++mi) {
-        const AchroMember& m = b.members[mi];
-        const brdf::CoatGeometry<T> g = brdf::coat_geometry<T>(p[0], m.wi, m.wo);
-        T fm = p[1] * T(std::numbers::inv_pi);
-        for (int k = 0; k < K; ++k)
-          fm += p[2 + 2 * k] *
-                brdf::ct_lobe<T>(p[3 + 2 * k], f0[k], g.n_dot_hbar, g.hbar_dot_obar, g.n_dot_ibar, g.n_dot_obar);
-        f += T(m.weight) * fm * g.transmittance;
-      }
-      if (!(f > T(kMinAxfModelValue))) return false;
-      residuals[q] = (log(f) - T(b.target)) * T(b.inv_sigma);
-    }
-    return true;
-  }
-};
-
-// The achromatic model at one bin in doubles (for starts, chi and reports).
 // The achromatic model at one member bin in doubles (for starts, chi and reports).
-double achromatic(const AxfVector& p, int K, const AchroMember& m, brdf::CoatGeometry<double>* geometry = nullptr) {
+double achromatic(const AxfVector& p, int K, const AchromaticMember& m, brdf::CoatGeometry<double>* geometry = nullptr) {
   const brdf::CoatGeometry<double> g = brdf::coat_geometry<double>(p.eta(), m.wi, m.wo);
   if (geometry) *geometry = g;
   double f = p.a() * std::numbers::inv_pi;
@@ -96,7 +53,7 @@ double achromatic(const AxfVector& p, int K, const AchroMember& m, brdf::CoatGeo
   return f * g.transmittance;
 }
 // ... averaged over a fit point's members.
-double achromatic(const AxfVector& p, int K, const AchroBin& b) {
+double achromatic(const AxfVector& p, int K, const AchromaticBin& b) {
   double f = 0;
   for (std::uint32_t mi = 0; mi < b.member_count; ++mi) f += b.members[mi].weight * achromatic(p, K, b.members[mi]);
   return f;
@@ -105,17 +62,10 @@ double achromatic(const AxfVector& p, int K, const AchroBin& b) {
 struct Problem {
   ceres::Problem problem;
   std::vector<ceres::ResidualBlockId> ids;
-  std::vector<std::vector<const AchroBin*>> chunks;  // owned here, referenced by the functors
+  std::vector<std::vector<const AchromaticBin*>> chunks;  // owned here, referenced by the functors
 };
 
-template <int K>
-ceres::CostFunction* make_cost(const std::vector<const AchroBin*>* chunk) {
-  auto* functor = new AxfChunk<K>{chunk};
-  return new ceres::AutoDiffCostFunction<AxfChunk<K>, ceres::DYNAMIC, 2 + 2 * K, K>(functor,
-                                                                                   static_cast<int>(chunk->size()));
-}
-
-void build(Problem& pr, const std::vector<const AchroBin*>& bins, AxfVector& v, int K, const AxfFitOptions& o) {
+void build(Problem& pr, const std::vector<const AchromaticBin*>& bins, AxfVector& v, int K, const AxfFitOptions& o) {
   double* p = v.main.data();
   double* f0 = v.f0.data();
   const std::size_t chunk = static_cast<std::size_t>(o.chunk_bins);
@@ -124,7 +74,9 @@ void build(Problem& pr, const std::vector<const AchroBin*>& bins, AxfVector& v, 
     pr.chunks.emplace_back(bins.begin() + static_cast<std::ptrdiff_t>(s),
                            bins.begin() + static_cast<std::ptrdiff_t>(std::min(bins.size(), s + chunk)));
   for (const auto& c : pr.chunks) {
-    ceres::CostFunction* cost = K == 1 ? make_cost<1>(&c) : K == 2 ? make_cost<2>(&c) : make_cost<3>(&c);
+    ceres::CostFunction* cost = K == 1   ? AxfAchromaticCost<1>::Create(&c)
+                                 : K == 2 ? AxfAchromaticCost<2>::Create(&c)
+                                          : AxfAchromaticCost<3>::Create(&c);
     ceres::LossFunction* loss = o.huber_scale > 0.0 ? new ceres::HuberLoss(o.huber_scale) : nullptr;
     pr.ids.push_back(pr.problem.AddResidualBlock(cost, loss, p, f0));
   }
@@ -147,7 +99,7 @@ struct AxfSolved {
   std::size_t blocks = 0;
 };
 
-AxfSolved solve_axf(const std::vector<const AchroBin*>& bins, const AxfVector& start, int K, const AxfFitOptions& o,
+AxfSolved solve_axf(const std::vector<const AchromaticBin*>& bins, const AxfVector& start, int K, const AxfFitOptions& o,
              int max_iterations) {
   AxfSolved out;
   out.p = start;
@@ -174,15 +126,15 @@ struct Start {
 
 // Grid over the spreads at eta = ior_start and F0 = 0.5; a and s by NNLS on relative
 // residuals.
-std::vector<Start> grid_starts(const std::vector<const AchroBin*>& bins, int K, const AxfFitOptions& o) {
+std::vector<Start> grid_starts(const std::vector<const AchromaticBin*>& bins, int K, const AxfFitOptions& o) {
   const std::vector<double> grid = detail::roughness_grid(o.m_min);
   const int G = static_cast<int>(grid.size());
   Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(G + 1, G + 1);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(G + 1), phi(G + 1);
-  for (const AchroBin* b : bins) {
+  for (const AchromaticBin* b : bins) {
     phi.setZero();
     for (std::uint32_t mi = 0; mi < b->member_count; ++mi) {
-      const AchroMember& m = b->members[mi];
+      const AchromaticMember& m = b->members[mi];
       const brdf::CoatGeometry<double> g = brdf::coat_geometry<double>(o.ior_start, m.wi, m.wo);
       phi[0] += m.weight * g.transmittance * std::numbers::inv_pi;
       for (int k = 0; k < G; ++k)
@@ -315,18 +267,18 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
   const std::size_t n_params = 2 + static_cast<std::size_t>(o.fit_f0 ? 3 : 2) * static_cast<std::size_t>(K);
 
   // Stage 1 data: bins with all three channels positive.
-  std::vector<AchroMember> achro_members(data.members.size());
+  std::vector<AchromaticMember> achro_members(data.members.size());
   for (std::size_t i = 0; i < data.members.size(); ++i) {
     const Eigen::Vector3d& c = data.members[i].coords;
     const brdf::DirectionPair d = brdf::directions_from_half_diff({c[0], 0.0, c[1], c[2]});
     achro_members[i] = {d.wi, d.wo, data.members[i].weight};
   }
-  std::vector<AchroBin> achro;
+  std::vector<AchromaticBin> achro;
   achro.reserve(data.bins.size());
   const double floor2 = data.options.relative_floor * data.options.relative_floor;
   for (const FitBin& b : data.bins) {
     if (b.inv_sigma[0] == 0.0 || b.inv_sigma[1] == 0.0 || b.inv_sigma[2] == 0.0) continue;
-    AchroBin a;
+    AchromaticBin a;
     a.src = &b;
     a.members = achro_members.data() + b.member_begin;
     a.member_count = b.member_count;
@@ -347,15 +299,15 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
     throw DataError(fmt::format("{} bins with all three channels measured cannot determine the {} parameters of an "
                                 "AxF car-paint fit with {} lobes",
                                 achro.size(), n_params, K));
-  std::vector<const AchroBin*> all;
-  for (const AchroBin& a : achro) all.push_back(&a);
+  std::vector<const AchromaticBin*> all;
+  for (const AchromaticBin& a : achro) all.push_back(&a);
   // Subsample through the FitBins' hash (peak bins favoured).
-  std::vector<const AchroBin*> sub;
+  std::vector<const AchromaticBin*> sub;
   {
     const std::vector<const FitBin*> picked = detail::subsample(data, o.start_bins);
     std::vector<char> keep(data.bins.size(), 0);
     for (const FitBin* b : picked) keep[static_cast<std::size_t>(b - data.bins.data())] = 1;
-    for (const AchroBin* a : all)
+    for (const AchromaticBin* a : all)
       if (keep[static_cast<std::size_t>(a->src - data.bins.data())]) sub.push_back(a);
     if (sub.size() <= n_params) sub = all;
   }
@@ -383,7 +335,7 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
   FitSummary& sum = fit.summary;
   sum.seed = o.seed;
   double mean_value = 0;
-  for (const AchroBin* a : sub) mean_value += a->value;
+  for (const AchromaticBin* a : sub) mean_value += a->value;
   mean_value /= static_cast<double>(sub.size());
   AxfSolved best;
   double best_cost = std::numeric_limits<double>::infinity();
@@ -475,13 +427,13 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
   std::vector<std::array<double, 3>> num(texels, {0, 0, 0}), den(texels, {0, 0, 0});
   std::vector<double> achro_model(achro.size());
   for (std::size_t q = 0; q < achro.size(); ++q) {
-    const AchroBin& a = achro[q];
+    const AchromaticBin& a = achro[q];
     const double model = achromatic(p, K, a);
     achro_model[q] = model;
     if (!(model > kMinAxfModelValue)) continue;
     // The point's colour ratio, splatted at each member bin's (theta_hbar, theta_ibar).
     for (std::uint32_t mi = 0; mi < a.member_count; ++mi) {
-      const AchroMember& m = a.members[mi];
+      const AchromaticMember& m = a.members[mi];
       brdf::CoatGeometry<double> g;
       achromatic(p, K, m, &g);
       const double th = std::acos(std::clamp(g.n_dot_hbar, -1.0, 1.0));
