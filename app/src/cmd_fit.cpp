@@ -33,9 +33,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string stats_line(const fit::ExtractionStats& s, const fit::BinnedTable& t) {
+std::string stats_line(const fit::ExtractionStats& s, const brdf::MerlTable& t) {
   return fmt::format("{} images: {} samples ({} invalid, {} grazing pixels skipped) in {} measured bins", s.images,
-                     s.samples, s.invalid, s.grazing, t.table.count_in_state(brdf::BinState::Measured));
+                     s.samples, s.invalid, s.grazing, t.count_in_state(brdf::BinState::Measured));
 }
 
 struct FitArgs {
@@ -64,45 +64,14 @@ int run_fit(const FitArgs& a) {
   const fs::path input(a.input);
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
   OutputGuard().input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out}).check();
-  fit::FitOutcome outcome;
-  if (fs::is_directory(input)) {
-    if (!fs::exists(input / "session.json"))
-      throw UsageError(fmt::format("{}: a folder without session.json; paintlab fit reads a session folder or a "
-                                   "MERL .binary table",
-                                   a.input));
-    const fit::BinnedSession s = fit::bin_session(acq::SessionDir::open(input), bin_options(a.extract));
-    say(stats_line(s.stats, s.binned));
-    req.name = fit::paint_name_from(a.name.empty() ? s.input["sample"].get<std::string>() : a.name);
-    spdlog::info("fitting {}", fit::to_string(req.model));
-    outcome = fit::fit_table(s.binned.table, &s.binned.noise_variance, req, s.input);
-  } else {
-    req.name = fit::paint_name_from(a.name.empty() ? input.stem().string() : a.name);
-    spdlog::info("reading {}", a.input);
-    brdf::MerlTable table = brdf::read_merl(input);
-    Json in = {{"kind", "merl"}, {"path", fs::absolute(input).string()}};
-    // Filled bins are not measurements: said at once, and left out of the fit when the
-    // coverage map `bin` wrote beside the table tells which they are.
-    const fs::path cov = fit::coverage_map_path_for(input);
-    const std::size_t measured = table.count_in_state(brdf::BinState::Measured);
-    if (fs::exists(cov)) {
-      const std::size_t filled = fit::mark_filled_bins(cov, table);
-      in["coverage_map"] = fs::absolute(cov).string();
-      in["filled_bins_left_out"] = filled;
-      if (filled > 0)
-        spdlog::warn("{}: {} of its {} bins were filled by `paintlab bin --fill` ({} says so); filled bins are not "
-                     "measurements, so the fit uses the {} measured ones",
-                     a.input, filled, measured, cov.string(), measured - filled);
-    } else if (static_cast<double>(measured) > 0.9 * static_cast<double>(fit::coverage(table).total.valid_bins)) {
-      spdlog::warn("{}: {} bins hold values, nearly every bin a rig can measure, and no coverage map ({}) says "
-                   "which were measured; if the table was filled (`paintlab bin --fill`), filled bins are fitted "
-                   "as measurements, and a fit over this many bins takes minutes (fit the unfilled table, or keep "
-                   "its coverage map beside it)",
-                   a.input, measured, cov.filename().string());
-    }
-    spdlog::info("fitting {} ({} measured bins)", fit::to_string(req.model),
-                 table.count_in_state(brdf::BinState::Measured));
-    outcome = fit::fit_table(table, nullptr, req, in);
-  }
+  const fit::FitInput in = fit::load_fit_input(input, bin_options(a.extract));
+  if (in.stats) say(stats_line(*in.stats, in.table));
+  for (const std::string& w : in.warnings) spdlog::warn("{}", w);
+  req.name = fit::paint_name_from(a.name.empty() ? in.sample : a.name);
+  spdlog::info("fitting {} ({} measured bins)", fit::to_string(req.model),
+               in.table.count_in_state(brdf::BinState::Measured));
+  const fit::FitOutcome outcome =
+      fit::fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance, req, in.input);
   write_json_file(a.out, outcome.fit);
   std::string report = outcome.report;
   while (!report.empty() && report.back() == '\n') report.pop_back();
@@ -141,7 +110,7 @@ int run_bin(const BinArgs& a) {
   }
   OutputGuard().input("SESSION", dir).input("--calib", a.extract.calib).output({"--out", out}).output(cov_spec).check();
   fit::BinnedSession s = fit::bin_session(acq::SessionDir::open(dir), bin_options(a.extract));
-  say(stats_line(s.stats, s.binned));
+  say(stats_line(s.stats, s.binned.table));
   if (s.binned.table.count_in_state(brdf::BinState::Measured) == 0)
     throw DataError(fmt::format("{}: no sample landed in the table (every pixel invalid or grazing); nothing written",
                                 a.session));

@@ -5,6 +5,7 @@
 
 #include "paintlab/acquisition/session_reader.h"
 #include "paintlab/core/error.h"
+#include "paintlab/fitting/coverage.h"
 #include "paintlab/core/version.h"
 
 namespace fs = std::filesystem;
@@ -75,6 +76,46 @@ AxfProvenance session_provenance(const acq::SessionDir& session) {
   p.session_sha256 = acq::session_sha256(session.dir());
   p.source = fs::absolute(session.dir()).lexically_normal().string();
   return p;
+}
+
+FitInput load_fit_input(const fs::path& path, const SessionBinOptions& options) {
+  if (!fs::exists(path)) throw IoError(path.string(), "no such file or folder");
+  FitInput in;
+  if (fs::is_directory(path)) {
+    if (!fs::exists(path / "session.json"))
+      throw DataError(fmt::format("{}: a folder without session.json; paintlab fit reads a session folder or a "
+                                  "MERL .binary table",
+                                  path.string()));
+    BinnedSession s = bin_session(acq::SessionDir::open(path), options);
+    in.table = std::move(s.binned.table);
+    in.noise_variance = std::move(s.binned.noise_variance);
+    in.sample = s.input["sample"].get<std::string>();
+    in.input = std::move(s.input);
+    in.stats = s.stats;
+    return in;
+  }
+  spdlog::info("reading {}", path.string());
+  in.table = brdf::read_merl(path);
+  in.sample = path.stem().string();
+  in.input = {{"kind", "merl"}, {"path", fs::absolute(path).string()}};
+  const fs::path cov = coverage_map_path_for(path);
+  const std::size_t measured = in.table.count_in_state(brdf::BinState::Measured);
+  if (fs::exists(cov)) {
+    const std::size_t filled = mark_filled_bins(cov, in.table);
+    in.input["coverage_map"] = fs::absolute(cov).string();
+    in.input["filled_bins_left_out"] = filled;
+    if (filled > 0)
+      in.warnings.push_back(fmt::format("{}: {} of its {} bins were filled by `paintlab bin --fill` ({} says so); "
+                                        "filled bins are not measurements, so the fit uses the {} measured ones",
+                                        path.string(), filled, measured, cov.string(), measured - filled));
+  } else if (static_cast<double>(measured) > 0.9 * static_cast<double>(coverage(in.table).total.valid_bins)) {
+    in.warnings.push_back(fmt::format(
+        "{}: {} bins hold values, nearly every bin a rig can measure, and no coverage map ({}) says which were "
+        "measured; if the table was filled (`paintlab bin --fill`), filled bins are fitted as measurements, and a fit "
+        "over this many bins takes minutes (fit the unfilled table, or keep its coverage map beside it)",
+        path.string(), measured, cov.filename().string()));
+  }
+  return in;
 }
 
 }  // namespace paintlab::fit

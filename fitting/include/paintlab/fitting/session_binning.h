@@ -40,6 +40,21 @@ std::vector<HdrFrame> session_frames(const acq::SessionDir& session);
 // DataError naming the missing positions and `paintlab measure --resume` otherwise).
 BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOptions& options);
 
+// What a fit reads: a session folder (extracted and binned with `options`) or a MERL .binary
+// table. For a table, the coverage map `paintlab bin` wrote beside it (coverage_map_path_for)
+// marks the bins `--fill` filled, which are left out (filled bins are not measurements); a
+// nearly full table without a map is warned about. DataError/IoError naming `path` when it
+// is neither.
+struct FitInput {
+  brdf::MerlTable table;
+  std::vector<float> noise_variance;     // 3 per bin (sessions); empty for tables
+  Json input;                            // fit.json's "input"
+  std::string sample;                    // the session's sample, or the table file's stem
+  std::optional<ExtractionStats> stats;  // sessions: what extraction found
+  std::vector<std::string> warnings;     // for people: bins left out, or a table that looks filled
+};
+FitInput load_fit_input(const std::filesystem::path& path, const SessionBinOptions& options);
+
 // The options a fit.json's "input" records (margin_px, variance, estimator), on top of
 // `base`: a table binned again from the same session is the one that was fitted. Fields
 // the input does not name keep `base`'s value; a bad value is a DataError naming `where`.

@@ -1,0 +1,61 @@
+// What a fit reads (fit::load_fit_input): a MERL table with or without the coverage map
+// `paintlab bin` writes beside it, and the errors for what is neither a table nor a session.
+// Sessions go through bin_session (FitCli.BinsAndFitsASessionFolder runs that path).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "paintlab/brdf/cook_torrance.h"
+#include "paintlab/brdf/merl.h"
+#include "paintlab/core/error.h"
+#include "paintlab/fitting/coverage.h"
+#include "paintlab/fitting/hole_fill.h"
+#include "paintlab/fitting/session_binning.h"
+#include "synthetic.h"
+#include "test_util.h"
+
+using namespace paintlab;
+using namespace paintlab::fit;
+using ::testing::HasSubstr;
+
+TEST(FitInput, AFilledTableLeavesItsFilledBinsOutWithItsMapAndIsWarnedAboutWithout) {
+  test::TempDir dir;
+  const brdf::CookTorrance paint(brdf::Rgb(0.03, 0.06, 0.3), {{brdf::Rgb(0.15, 0.15, 0.15), 0.05, 0.04}});
+  brdf::MerlTable t = test_support::tabulate_sparse(paint, 8);
+  const std::size_t measured = t.count_in_state(brdf::BinState::Measured);
+  const HoleFillReport r = fill_holes(t);
+  const std::size_t filled = r.filled_mirror + r.filled_pyramid;
+  ASSERT_GT(filled, 0u);
+  brdf::write_merl(dir / "blue.binary", t);
+  write_coverage_exr(coverage_map_path_for(dir / "blue.binary"), t);
+
+  const FitInput in = load_fit_input(dir / "blue.binary", SessionBinOptions{});
+  EXPECT_EQ(in.table.count_in_state(brdf::BinState::Measured), measured);  // the filled ones marked, not fitted
+  EXPECT_EQ(in.input["kind"], "merl");
+  EXPECT_EQ(in.input["filled_bins_left_out"].get<std::size_t>(), filled);
+  EXPECT_EQ(in.sample, "blue");
+  EXPECT_TRUE(in.noise_variance.empty());
+  EXPECT_FALSE(in.stats);
+  ASSERT_EQ(in.warnings.size(), 1u);
+  EXPECT_THAT(in.warnings[0], HasSubstr("filled bins are not measurements, so the fit uses the " +
+                                        std::to_string(measured) + " measured ones"));
+
+  // Without its map the same table reads as measured everywhere, and says why that is suspect.
+  std::filesystem::remove(coverage_map_path_for(dir / "blue.binary"));
+  const FitInput bare = load_fit_input(dir / "blue.binary", SessionBinOptions{});
+  EXPECT_EQ(bare.table.count_in_state(brdf::BinState::Measured), measured + filled);
+  ASSERT_EQ(bare.warnings.size(), 1u);
+  EXPECT_THAT(bare.warnings[0], HasSubstr("no coverage map (blue.coverage.exr) says which were measured"));
+}
+
+TEST(FitInput, NeitherATableNorASessionIsAnErrorNamingThePath) {
+  test::TempDir dir;
+  try {
+    load_fit_input(dir.path(), SessionBinOptions{});
+    FAIL() << "a folder without session.json was read";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("a folder without session.json"));
+  }
+  EXPECT_THROW(load_fit_input(dir / "missing.binary", SessionBinOptions{}), IoError);
+}
