@@ -18,6 +18,7 @@
 #include "paintlab/core/image_io.h"
 #include "paintlab/sim/paint.h"
 #include "paintlab/sim/peers/sim_rig.h"
+#include "paintlab/sim/scene_render.h"
 #include "paintlab/sim/scenes.h"
 
 namespace fs = std::filesystem;
@@ -64,28 +65,6 @@ class ConsoleStage final : public acq::Stage {
   Target current_ = Target::Sample;
 };
 
-// Frames of a fixed scene radiance through the simulated sensor, as the world's own source
-// makes them (exposure, gain, output depth, the camera's black level).
-sim::FrameSource static_scene(sim::SimWorld& world, std::shared_ptr<const ImageF> radiance) {
-  sim::SimWorld* w = &world;
-  return [w, radiance](const sim::FrameRequest& r, std::uint16_t* out) {
-    sim::ExposureSettings es;
-    es.exposure_s = r.exposure_s;
-    es.gain_db = r.gain_db;
-    const int bits = dev::bit_depth(r.format);
-    es.output_bits = bits;
-    const Image<std::uint16_t> raw = w->sensor().expose(*radiance, es);
-    const auto& sp = w->config().sensor;
-    const double offset = (r.black_level - sp.black_level_dn) * std::ldexp(1.0, bits - sp.adc_bits);
-    const double max = std::ldexp(1.0, bits) - 1.0;
-    std::fill(out, out + static_cast<std::size_t>(r.width) * r.height, std::uint16_t{0});
-    for (int y = 0; y < std::min(r.height, raw.height()); ++y)
-      for (int x = 0; x < std::min(r.width, raw.width()); ++x)
-        out[static_cast<std::size_t>(y) * r.width + x] =
-            static_cast<std::uint16_t>(std::clamp(std::round(raw.at(x, y) + offset), 0.0, max));
-  };
-}
-
 // The simulator plays the technician: it swaps the sphere's paint and shows chessboards
 // to the simulated camera (which still reaches us through the GigE Vision driver).
 class SimStage final : public acq::Stage {
@@ -106,13 +85,13 @@ class SimStage final : public acq::Stage {
     light.irradiance_w_m2 = w.irradiance_for_fill(0.5, 0.01, cb.white_albedo);
     auto radiance = std::make_shared<ImageF>(
         sim::render_chessboard(w.camera(), cb, poses_[static_cast<std::size_t>(index)], light, 16, 1, 0));
-    rig_.camera()->set_source(static_scene(w, std::move(radiance)));
+    rig_.show(std::move(radiance));
     board_shown_ = true;
   }
 
   void mount(Target target) override {
     if (board_shown_) {
-      rig_.camera()->set_source(rig_.world_source());
+      rig_.show_world();
       board_shown_ = false;
     }
     switch (target) {
@@ -130,21 +109,12 @@ class SimStage final : public acq::Stage {
   // The simulated camera's frames show a dark field or a uniform field through the
   // simulated sensor.
   void cover_lens(acq::LensView view) override {
-    sim::SimWorld& w = rig_.world();
-    switch (view) {
-      case acq::LensView::Scene:
-        rig_.camera()->set_source(rig_.world_source());
-        break;
-      case acq::LensView::Capped:
-        rig_.camera()->set_source(static_scene(w, std::make_shared<ImageF>(sim::dark_field(w.camera()))));
-        break;
-      case acq::LensView::Diffuser: {
-        // Bright enough that the image centre reaches half the full well in 10 ms.
-        const double level = w.radiance_for_fill(0.5, 0.01);
-        rig_.camera()->set_source(static_scene(w, std::make_shared<ImageF>(sim::uniform_field(w.camera(), level))));
-        break;
-      }
-    }
+    if (view == acq::LensView::Scene) return rig_.show_world();
+    // Bright enough that the image centre reaches half the full well in 10 ms.
+    sim::SceneRequest q;
+    q.kind = view == acq::LensView::Capped ? sim::SceneKind::Dark : sim::SceneKind::Flat;
+    q.exposure_s = 0.01;
+    rig_.show(std::make_shared<ImageF>(sim::render_scene(rig_.world(), q).radiance));
   }
   double known_albedo() const override { return albedo_; }
 
@@ -164,15 +134,6 @@ acq::HdrCalibration load_radiometry(const RigConfig& rig) {
 }
 
 std::shared_ptr<CalibrationRunners> make_calibration_runners() { return std::make_shared<CalibrationRunners>(); }
-
-void require_step_inputs(const RigConfig& rig, const std::string& step) {
-  std::string missing;
-  for (const std::string& f : calib::procedure_step(step).needs)
-    if (!fs::exists(rig.calibration_dir / f))
-      missing += fmt::format("\n  {}: run `paintlab calibrate {} --rig {}` first", (rig.calibration_dir / f).string(),
-                             calib::calibrate_step_for(f), rig.file.string());
-  if (!missing.empty()) throw CalibrationError("calibrate " + step + " needs what the calibration folder lacks:" + missing);
-}
 
 Json device_serials(RigDevices& d, const RigConfig& rig) {
   // The camera's serial number; the turntable and LED have none over their protocols, so

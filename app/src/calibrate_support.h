@@ -70,8 +70,4 @@ struct CalibrationRunners {
   std::map<std::string, std::function<void(CalibrateContext&)>> by_step;
 };
 
-// CalibrationError naming each file the step needs (calib::ProcedureStep::needs) that the
-// rig's calibration folder does not hold, and the step that makes it.
-void require_step_inputs(const RigConfig& rig, const std::string& step);
-
 }  // namespace paintlab::app

@@ -39,35 +39,6 @@ namespace paintlab::app {
 
 namespace {
 
-// "a,b,c" or "start:stop:step" (stop inclusive), degrees.
-std::vector<double> parse_angles(const std::string& text, const std::string& option) {
-  std::vector<double> out;
-  auto num = [&](const std::string& s) {
-    try {
-      std::size_t used = 0;
-      double v = std::stod(s, &used);
-      if (used != s.size() || !std::isfinite(v)) throw std::invalid_argument(s);
-      return v;
-    } catch (const std::exception&) {
-      throw UsageError(option + " '" + text + "': '" + s + "' is not a number of degrees");
-    }
-  };
-  if (text.find(':') != std::string::npos) {
-    std::vector<std::string> parts;
-    std::stringstream ss(text);
-    for (std::string p; std::getline(ss, p, ':');) parts.push_back(p);
-    if (parts.size() != 3) throw UsageError(option + " '" + text + "': expected START:STOP:STEP");
-    const double a = num(parts[0]), b = num(parts[1]), st = num(parts[2]);
-    if (!(st > 0) || b < a) throw UsageError(option + " '" + text + "': need STEP > 0 and STOP >= START");
-    for (double v = a; v <= b + 1e-9; v += st) out.push_back(v);
-  } else {
-    std::stringstream ss(text);
-    for (std::string p; std::getline(ss, p, ',');) out.push_back(num(p));
-  }
-  if (out.empty()) throw UsageError(option + ": no angles given");
-  return out;
-}
-
 Json provenance_devices(const CalibrateContext& c) { return c.session ? c.session->serials : Json::object(); }
 
 std::vector<fs::path> inputs_of(const std::vector<Shot>& shots) {
@@ -189,20 +160,13 @@ void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig)
   r.provenance = calib::Provenance::make("intrinsics", inputs, provenance_devices(c));
   const fs::path out = a.out.empty() ? out_file(c.rig, calib::kCameraFile) : fs::path(a.out);
   r.save(out);
-  say(fmt::format("intrinsics: {} of {} views, RMS {:.3f} px (worst corner {:.3f} px), fx {:.2f} +- {:.2f}, fy {:.2f} +- {:.2f}, "
-                  "cx {:.2f} +- {:.2f}, cy {:.2f} +- {:.2f} px, dist [{:.4g}, {:.4g}, {:.4g}, {:.4g}, {:.4g}]",
-                  r.views_used, r.views.size(), r.rms_px, r.worst_px, r.camera.fx(), r.std.fx, r.camera.fy(), r.std.fy,
-                  r.camera.cx(), r.std.cx, r.camera.cy(), r.std.cy, r.camera.dist[0], r.camera.dist[1], r.camera.dist[2],
-                  r.camera.dist[3], r.camera.dist[4]));
-  if (!r.k3.note.empty()) say("  " + r.k3.note);
-  for (const auto& v : r.views)
-    if (!v.used) say(fmt::format("  dropped {}: {}", v.name, v.reason));
+  say(r.describe());
   say("  wrote " + out.string());
 }
 
 calib::SphereFit run_sphere(CalibrateContext& c, const std::vector<std::string>& files, const std::string& angles) {
   const calib::CameraModel cam = calib::load_camera_model(c.rig.calibration_dir / calib::kCameraFile);
-  std::vector<Shot> shots = step_images(c, "sphere", files, parse_angles(angles, "--angles"), Target::WhiteReference, true,
+  std::vector<Shot> shots = step_images(c, "sphere", files, calib::parse_angles(angles, "--angles"), Target::WhiteReference, true,
                                         0.7, 0.999);
   std::vector<calib::SphereImage> images;
   for (const auto& s : shots) images.push_back({s.name, s.rate});
@@ -212,11 +176,7 @@ calib::SphereFit run_sphere(CalibrateContext& c, const std::vector<std::string>&
   fit.provenance = calib::Provenance::make("sphere", inputs_of(shots), provenance_devices(c));
   const fs::path out = out_file(c.rig, calib::kSphereFile);
   fit.save(out);
-  const Vec3 sd = fit.centre_std_m();
-  say(fmt::format("sphere: centre ({:.2f}, {:.2f}, {:.2f}) mm +- ({:.3f}, {:.3f}, {:.3f}) mm in the camera frame; "
-                  "silhouette RMS {:.3f} px over {} edge points ({:.0f} % of the outline), edge width {:.2f} px",
-                  fit.centre_cam_m.x() * 1e3, fit.centre_cam_m.y() * 1e3, fit.centre_cam_m.z() * 1e3, sd.x() * 1e3,
-                  sd.y() * 1e3, sd.z() * 1e3, fit.rms_px, fit.edges_used, 100 * fit.coverage, fit.edge_width_px));
+  say(fit.describe());
   say("  wrote " + out.string());
   return fit;
 }
@@ -225,24 +185,14 @@ void run_light(CalibrateContext& c, const std::vector<std::string>& files, const
   const calib::RigCalibration cal = calib::RigCalibration::load(c.rig);
   cal.require({calib::kCameraFile, calib::kSphereFile});
   std::vector<Shot> shots =
-      step_images(c, "light", files, parse_angles(angles, "--angles"), Target::GlossySphere, true, 0.8, 1.0);
+      step_images(c, "light", files, calib::parse_angles(angles, "--angles"), Target::GlossySphere, true, 0.8, 1.0);
   std::vector<calib::HighlightImage> images;
   for (const auto& s : shots) images.push_back(acq::highlight_image(s, "calibrate light"));
   calib::LightCalibration l = calib::calibrate_light(images, cal.camera(), *cal.sphere(), c.rig.geometry);
   l.provenance = calib::Provenance::make("light", inputs_of(shots), provenance_devices(c));
   const fs::path out = out_file(c.rig, calib::kLightFile);
   l.save(out);
-  say(fmt::format("light: {} of {} highlights, residual RMS {:.4f} deg (max {:.4f}); arm radius {:.2f} +- {:.2f} mm, "
-                  "height {:.2f} +- {:.2f} mm, zero {:.3f} +- {:.3f} deg, axis +- {:.3f} deg",
-                  l.used, l.highlights.size(), l.rms_deg, l.max_deg, l.model.arm_radius_m * 1e3, l.arm_radius_std_m * 1e3,
-                  l.model.arm_height_m * 1e3, l.arm_height_std_m * 1e3, l.model.zero_deg, l.zero_std_deg, l.axis_std_deg));
-  say(fmt::format("  highlight blur {:.3f} px{} ({})", l.blur_sigma_px,
-                  l.blur_std_px > 0 ? fmt::format(" +- {:.3f}", l.blur_std_px) : std::string(),
-                  l.blur_source == "highlights" ? "fitted to the highlights"
-                  : l.blur_source == "sphere"   ? "the silhouette's edge blur: too few highlights to fit it"
-                                                : "given"));
-  for (const auto& h : l.highlights)
-    if (!h.used) say(fmt::format("  not used {} ({:g} deg): {}", h.name, h.table_angle_deg, h.reason));
+  say(l.describe());
   say("  wrote " + out.string());
 }
 
@@ -254,7 +204,7 @@ void run_scale(CalibrateContext& c, const std::vector<std::string>& files, const
   if (!(albedo > 0))
     throw UsageError("calibrate scale: give --albedo, the reference sphere's certified albedo (e.g. 0.99)");
   std::vector<Shot> shots =
-      step_images(c, "scale", files, parse_angles(angles, "--angles"), Target::WhiteReference, true, 0.7, 0.9999);
+      step_images(c, "scale", files, calib::parse_angles(angles, "--angles"), Target::WhiteReference, true, 0.7, 0.9999);
   std::vector<calib::ReferenceImage> images;
   for (const auto& s : shots) images.push_back(acq::reference_image(s, "calibrate scale"));
   calib::ScaleOptions o;
@@ -265,10 +215,7 @@ void run_scale(CalibrateContext& c, const std::vector<std::string>& files, const
   if (!o.fit_profile) say("  no flat.json: the LED profile is not fitted (taken as uniform); run `paintlab calibrate flat` first to fit it");
   calib::ScaleCalibration sc = calib::calibrate_scale(images, cal.camera(), *cal.sphere(), cal.light()->model, o);
   sc.provenance = calib::Provenance::make("scale", inputs_of(shots), provenance_devices(c));
-  say(fmt::format("scale: {:.6g} DN/s per (1/sr W/m^2 per W/sr) +- {:.3f} %, images agree within {:.3f} %, LED profile "
-                  "cos^n with n = {:.2f} +- {:.2f}; {} pixels, {} saturated ({:.3f} %)",
-                  sc.scale, 100 * sc.uncertainty_rel, 100 * sc.spread_rel, sc.profile_exponent, sc.profile_exponent_std,
-                  sc.pixels, sc.saturated, 100 * sc.saturated_frac));
+  say(sc.describe());
   if (sc.saturated_frac > c.rig.tolerances.saturated_frac)
     throw CalibrationError(fmt::format("calibrate scale: the reference is saturated in {:.3f} % of its lit pixels (tolerance "
                                        "{:.3f} %): shorten the exposure; scale.json was not written",
@@ -371,7 +318,10 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
     on_run(cmd, [a, run, context, name = std::string(g.name)] {
       if (a->images.empty() == !a->capture) throw UsageError("calibrate " + name + ": give either --images or --capture");
       std::unique_ptr<CalibSession> keep;
-      require_step_inputs(load_rig(a->rig), name);  // before any device opens
+      {
+        const RigConfig rig = load_rig(a->rig);
+        calib::require_step_inputs(rig.calibration_dir, name, rig.file);
+      }  // before any device opens
       check_calibration_outputs(a->rig, a->images, {name});
       CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
       run(c, a->images, a->angles);
@@ -412,7 +362,7 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
         if (run == runners->by_step.end())
           throw CalibrationError("calibrate all: no command runs the step '" + step.name + "'");
         say(fmt::format("== {} ==", step.name));
-        require_step_inputs(c.rig, step.name);
+        calib::require_step_inputs(c.rig.calibration_dir, step.name, c.rig.file);
         run->second(c);
       }
       if (c.session) c.session->stage->mount(Target::Sample);

@@ -80,8 +80,6 @@ std::vector<std::uint16_t> parse_colour(const std::string& text) {
   return out;
 }
 
-std::string percent(double v) { return fmt::format("{:.2f} %", 100.0 * v); }
-
 // One run of a step: the rig (when given), the devices (when capturing) or the folder of
 // `calibrate all --images DIR`, and the output file.
 struct StepRun {
@@ -141,11 +139,7 @@ void run_dark(const DarkArgs& a, const StepRun& run) {
   if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
   d.save(run.out);
   run.refresh();
-  say(fmt::format("dark: {} frames at {} exposure(s); black level {:.2f} DN, dark current {:.3g} DN/s, read noise {}",
-                  d.frame_count, d.exposures_s.size(), d.mean_bias_dn, d.mean_rate_dn_per_s,
-                  d.read_noise_measured ? fmt::format("{:.3g} DN", d.read_noise_dn)
-                                        : std::string("not measured (needs >= 2 frames at one exposure)")));
-  say(fmt::format("  hot pixels: {} ({:.4f} %)", d.hot_count, 100.0 * d.hot_fraction()));
+  say(d.describe());
   say("  wrote " + run.out.string() + " and " + fs::path(run.out).replace_extension(".exr").string());
 }
 
@@ -207,18 +201,7 @@ void run_response(const ResponseArgs& a, const StepRun& run) {
   if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
   r.save(run.out);
   run.refresh();
-  double worst_nonlin = 0.0;
-  for (double v : r.report.nonlinearity_rel) worst_nonlin = std::max(worst_nonlin, v);
-  say(fmt::format("response: {} method, {}-bit, {} channel(s), {} knots, {} images; used range {:.0f}..{:.0f} DN "
-                  "(black {:.1f} DN{})",
-                  calib::to_string(r.method), r.bit_depth, r.channels, r.knots_dn.size(), frames.size(),
-                  r.window.floor_dn, r.window.u_saturation(), r.window.black_dn,
-                  r.dark_subtracted ? ", dark frame subtracted" : ""));
-  say(fmt::format("  linearity error {} (RMS {}), nonlinearity of the camera {}", percent(r.report.linearity_error_rel),
-                  percent(r.report.linearity_rms_rel), percent(worst_nonlin)));
-  if (r.noise.known())
-    say(fmt::format("  noise: read {:.3g} DN, shot {:.3g} DN/e ({})", r.noise.read_noise_dn, r.noise.gain_dn_per_e,
-                    r.noise.source));
+  say(r.describe());
   say("  wrote " + run.out.string());
 }
 
@@ -259,10 +242,7 @@ void run_flat(const FlatArgs& a, const StepRun& run) {
   if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
   f.save(run.out);
   run.refresh();
-  say(fmt::format("flat: {} frames, mean signal {:.0f} DN; darkest/brightest corner {:.3f}, darkest corner/centre "
-                  "{:.3f}, pixel non-uniformity {}",
-                  f.frame_count, f.mean_signal_dn, f.corner_ratio, f.centre_to_corner, percent(f.prnu_rel)));
-  if (f.noise.known()) say(fmt::format("  conversion gain {:.4g} DN/e ({})", f.noise.gain_dn_per_e, f.noise.source));
+  say(f.describe());
   say("  wrote " + run.out.string() + " and " + fs::path(run.out).replace_extension(".exr").string());
 }
 

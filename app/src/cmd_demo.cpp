@@ -9,9 +9,7 @@
 // sphere, the LED, the response curve), prints a summary table and writes DIR/summary.json
 // in the shape of DESIGN.md's contract.
 #include <fmt/format.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
+#include <signal.h>
 
 #include <chrono>
 #include <cmath>
@@ -21,7 +19,6 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <toml++/toml.h>
 
 #include "cli.h"
 #include "output_guard.h"
@@ -35,14 +32,13 @@
 #include "paintlab/core/error.h"
 #include "paintlab/core/json.h"
 #include "paintlab/core/log.h"
+#include "paintlab/core/process.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/sim/builtin.h"
 #include "paintlab/sim/config.h"
 #include "paintlab/sim/sensor.h"
 #include "paintlab/sim/world.h"
 #include "rig_devices.h"
-#include "resources.h"
-
-extern char** environ;
 
 namespace paintlab::app {
 namespace {
@@ -60,55 +56,6 @@ struct DemoArgs {
   int max_iterations = 100;  // of the fit's final solve (paintlab fit --max-iterations)
 };
 
-// Sets `path` (e.g. "geometry.image_width_px") of the built-in rig to `value`. The key must
-// exist (the embedded rig is ours: a miss is a programming error, said plainly).
-template <class T>
-void set_key(toml::table& rig, std::string_view path, T value) {
-  const auto dot = path.rfind('.');
-  toml::table* parent = dot == std::string_view::npos ? &rig : rig.at_path(path.substr(0, dot)).as_table();
-  const std::string_view key = dot == std::string_view::npos ? path : path.substr(dot + 1);
-  if (!parent || !parent->contains(key))
-    throw std::logic_error(fmt::format("demo: the built-in rig has no key {}", path));
-  parent->insert_or_assign(key, value);
-}
-
-// The rig of `paintlab demo`: the built-in simulated rig with its calibration folder beside
-// the rig file; with `quick`, half the resolution (pixels twice as large, intrinsics halved),
-// light every 10 degrees, 8 exposures. Numbers are rounded to 6 significant digits.
-std::string demo_rig_text(bool quick) {
-  const std::string text = resources::rig_sim_toml();
-  toml::table rig = toml::parse(std::string_view(text), std::string_view("rig-sim.toml"));
-  set_key(rig, "calibration", std::string("calib"));
-  if (quick) {
-    RigConfig full = RigConfig::parse(ConfigTable::parse_string(text, "rig-sim.toml"), "rig-sim.toml");
-    const sim::SimConfig truth = sim::SimConfig::from_rig(full);
-    const double s = 0.5;
-    auto num = [](double v) { return std::stod(fmt::format("{:.6g}", v)); };
-    set_key(rig, "geometry.image_width_px", std::int64_t{full.geometry.image_width_px / 2});
-    set_key(rig, "geometry.image_height_px", std::int64_t{full.geometry.image_height_px / 2});
-    set_key(rig, "geometry.pixel_size_um", num(full.geometry.pixel_size_um * 2));
-    const Mat3 K = truth.camera.K();
-    set_key(rig, "sim.camera.fx_px", num(K(0, 0) * s));
-    set_key(rig, "sim.camera.fy_px", num(K(1, 1) * s));
-    // Pixel centres: x' + 0.5 = (x + 0.5) / 2.
-    set_key(rig, "sim.camera.cx_px", num((K(0, 2) + 0.5) * s - 0.5));
-    set_key(rig, "sim.camera.cy_px", num((K(1, 2) + 0.5) * s - 0.5));
-    set_key(rig, "sim.camera.psf_sigma_px", num(truth.camera.psf_sigma_px * s));
-    set_key(rig, "plan.angle_step_deg", std::int64_t{10});
-    set_key(rig, "plan.bracket.count", std::int64_t{8});
-  }
-  std::ostringstream out;
-  out << (quick ? "# paintlab demo --quick: the built-in simulated rig (examples/rig-sim.toml) at half resolution,\n"
-                  "# light every 10 deg, 8 exposures; the keys are described in docs/rig.md.\n"
-                : "# paintlab demo: the built-in simulated rig (examples/rig-sim.toml); the keys are described in "
-                  "docs/rig.md.\n")
-      // Shortest round-tripping numbers (0.6, not 0.59999999999999998), strings in double quotes.
-      << toml::toml_formatter(rig, (toml::toml_formatter::default_flags & ~toml::format_flags::allow_literal_strings) |
-                                       toml::format_flags::relaxed_float_precision)
-      << "\n";
-  return out.str();
-}
-
 // The paint the demo measures: a file, or the built-in silver metallic.
 struct DemoPaint {
   brdf::PaintSpec spec;
@@ -118,8 +65,8 @@ struct DemoPaint {
 DemoPaint demo_paint(const std::string& file) {
   DemoPaint p;
   if (file.empty()) {
-    p.toml_text = resources::paint_silver_metallic_toml();
-    p.spec = brdf::parse_paint(ConfigTable::parse_string(p.toml_text, "silver-metallic.toml"));
+    p.toml_text = sim::builtin_paint_toml();
+    p.spec = sim::builtin_paint();
   } else {
     p.spec = brdf::load_paint_file(file);
     std::ifstream in(file);
@@ -128,13 +75,6 @@ DemoPaint demo_paint(const std::string& file) {
     p.toml_text = ss.str();
   }
   if (p.spec.merl()) throw UsageError("demo --paint: a MERL table cannot be simulated; give an analytic paint");
-  return p;
-}
-
-fs::path self_exe() {
-  std::error_code ec;
-  fs::path p = fs::read_symlink("/proc/self/exe", ec);
-  if (ec) throw IoError("/proc/self/exe", "demo: cannot find the paintlab executable: " + ec.message());
   return p;
 }
 
@@ -147,23 +87,10 @@ int run_step(const std::vector<std::string>& args, double& seconds) {
   for (const auto& a : args) shown += " " + (a.find(' ') == std::string::npos ? a : "'" + a + "'");
   say("");
   say("$ " + shown);
-  const std::string exe = self_exe().string();
-  std::vector<char*> argv{const_cast<char*>(exe.c_str())};
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
   const auto t0 = std::chrono::steady_clock::now();
-  pid_t pid = 0;
-  if (int rc = posix_spawn(&pid, exe.c_str(), nullptr, nullptr, argv.data(), environ); rc != 0)
-    throw IoError(exe, "demo: cannot start it", rc);
-  g_child = pid;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) throw IoError(exe, "demo: waiting for " + shown, errno);
-  }
-  g_child = 0;
+  const int rc = run_process(self_executable(), args, &g_child);
   seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
-  return WEXITSTATUS(status);
+  return rc;
 }
 
 // Ctrl-C reaches the child (same process group) which stops safely; the demo just waits.
@@ -287,7 +214,7 @@ int run_demo(const DemoArgs& a) {
 
   const fs::path rig_file = dir / "rig.toml";
   const fs::path paint_file = dir / (name + ".toml");
-  write_file_atomic(rig_file, demo_rig_text(a.quick));
+  write_file_atomic(rig_file, sim::demo_rig_toml(a.quick));
   write_file_atomic(paint_file, paint.toml_text);
   const RigConfig rig = load_rig(rig_file);
   const sim::SimConfig truth = sim::SimConfig::from_rig(rig);

@@ -12,7 +12,7 @@
 #include "paintlab/core/image_io.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/sim/paint.h"
-#include "paintlab/sim/scenes.h"
+#include "paintlab/sim/scene_render.h"
 #include "paintlab/sim/world.h"
 
 namespace paintlab::app {
@@ -45,58 +45,34 @@ std::string lower_extension(const std::string& path) {
 int run_render(const RenderArgs& a) {
   const std::string ext = lower_extension(a.out);
   if (ext != ".exr" && ext != ".png") throw UsageError("--out must end in .exr (radiance) or .png (16-bit raw): " + a.out);
-  if (!std::isfinite(a.angle_deg)) throw UsageError("--angle must be a finite number of degrees");
   if (!(a.exposure_ms > 0) || !std::isfinite(a.exposure_ms)) throw UsageError("--exposure must be > 0 ms");
-  if (!(a.gain_db >= 0 && a.gain_db <= 48)) throw UsageError("--gain-db must be in [0, 48]");
+  if (!std::isfinite(a.angle_deg)) throw UsageError("--angle must be a finite number of degrees");
   if (a.threads < 0) throw UsageError("--threads must be >= 0 (0 = all cores)");
+  if (!(a.gain_db >= 0 && a.gain_db <= 48)) throw UsageError("--gain-db must be in [0, 48]");
   if (a.scene == "sphere" && a.paint.empty()) throw UsageError("--paint is required for the sphere scene");
   OutputGuard().input("--rig", a.rig).input("--paint", a.paint).output({"--out", a.out}).check();
 
   const RigConfig rig = load_rig(a.rig);
   sim::SimWorld world(sim::SimConfig::from_rig(rig));
   const double exposure_s = a.exposure_ms * 1e-3;
-  sim::RenderOptions opt;
-  opt.mono = !a.rgb;
-  opt.sparkle = !a.no_sparkle;
-  opt.threads = a.threads;
-  const int channels = a.rgb ? 3 : 1;
-
-  ImageF radiance;
-  std::string what;
-  if (a.scene == "sphere") {
-    sim::SimPaint paint = sim::load_sim_paint(a.paint);
-    world.set_paint(paint);
-    radiance = world.render_at(a.angle_deg, !a.led_off, opt);
-    what = fmt::format("sphere painted '{}' at table angle {:g} deg{}", std::filesystem::path(a.paint).stem().string(),
-                       a.angle_deg, a.led_off ? ", LED off" : "");
-  } else if (a.scene == "white") {
-    radiance = world.render_with(sim::reference_paint(a.albedo), a.angle_deg, !a.led_off, opt);
-    what = fmt::format("white reference sphere (albedo {:g}) at table angle {:g} deg", a.albedo, a.angle_deg);
-  } else if (a.scene == "chessboard") {
-    sim::Chessboard board;
-    auto poses = sim::chessboard_poses(world.camera(), board, a.view + 1, world.config().seed);
-    // Lit so that white squares reach about half of the full well at this exposure.
-    sim::PlaneLighting light;
-    light.irradiance_w_m2 = world.irradiance_for_fill(0.5, exposure_s, board.white_albedo);
-    radiance = sim::render_chessboard(world.camera(), board, poses.back(), light, 16, channels, a.threads);
-    what = fmt::format("{}x{} chessboard of {:g} mm squares, view {}", board.cols, board.rows, board.square_m * 1e3,
-                       a.view);
-  } else if (a.scene == "charuco") {
-    sim::CharucoBoard board;
-    auto poses = sim::charuco_poses(world.camera(), board, a.view + 1, world.config().seed);
-    sim::PlaneLighting light;
-    light.irradiance_w_m2 = world.irradiance_for_fill(0.5, exposure_s, board.white_albedo);
-    radiance = sim::render_charuco(world.camera(), board, poses.back(), light, 16, channels, a.threads);
-    what = fmt::format("{}x{} ChArUco board of {:g} mm squares, {:g} mm DICT_6X6_250 markers, view {}",
-                       board.squares_x, board.squares_y, board.square_m * 1e3, board.marker_m * 1e3, a.view);
-  } else if (a.scene == "flat") {
-    const double level = world.radiance_for_fill(0.5, exposure_s);
-    radiance = sim::uniform_field(world.camera(), level, channels);
-    what = fmt::format("uniform field of {:.4g} W sr^-1 m^-2 (half the full well at the centre)", level);
-  } else {
-    radiance = sim::dark_field(world.camera(), channels);
-    what = "dark frame";
+  sim::SceneRequest q;
+  q.kind = sim::scene_kind_from_string(a.scene, "--scene");
+  q.angle_deg = a.angle_deg;
+  q.led_on = !a.led_off;
+  q.albedo = a.albedo;
+  q.view = a.view;
+  q.exposure_s = exposure_s;
+  q.channels = a.rgb ? 3 : 1;
+  q.sparkle = !a.no_sparkle;
+  q.threads = a.threads;
+  if (q.kind == sim::SceneKind::Sphere) {
+    world.set_paint(sim::load_sim_paint(a.paint));
+    q.paint_name = std::filesystem::path(a.paint).stem().string();
   }
+  const sim::SceneRender scene = sim::render_scene(world, q);
+  const ImageF& radiance = scene.radiance;
+  const int channels = q.channels;
+  const std::string& what = scene.description;
 
   if (ext == ".exr") {
     ExrImage exr;

@@ -4,10 +4,10 @@
 
 #include "paintlab/brdf/paint.h"
 #include "paintlab/core/error.h"
+#include "paintlab/sim/builtin.h"
 #include "paintlab/sim/paint.h"
 #include "paintlab/sim/peers/sim_rig.h"
 #include "cli.h"
-#include "resources.h"
 
 namespace fs = std::filesystem;
 
@@ -15,9 +15,7 @@ namespace paintlab::app {
 
 Json load_sim_paint_json(const std::string& paint_file) {
   brdf::PaintSpec spec =
-      paint_file.empty()
-          ? brdf::parse_paint(ConfigTable::parse_string(resources::paint_silver_metallic_toml(), "silver-metallic.toml"))
-          : brdf::load_paint_file(paint_file);
+      paint_file.empty() ? sim::builtin_paint() : brdf::load_paint_file(paint_file);
   if (spec.merl()) throw UsageError("--sim-paint: a MERL table cannot be simulated with sparkle; use an analytic paint");
   return brdf::to_json(spec);
 }

@@ -1,6 +1,12 @@
 #include "paintlab/calibration/procedure.h"
 
+#include <fmt/format.h>
+
+#include <cmath>
+#include <sstream>
+
 #include "paintlab/calibration/record.h"
+#include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
 
 namespace paintlab::calib {
@@ -35,6 +41,45 @@ const ProcedureStep& procedure_step(std::string_view name) {
     names += (names.empty() ? "" : ", ") + s.name;
   }
   throw UsageError("no calibration step '" + std::string(name) + "' (the steps: " + names + ")");
+}
+
+std::vector<double> parse_angles(const std::string& text, const std::string& option) {
+  std::vector<double> out;
+  auto num = [&](const std::string& s) {
+    try {
+      std::size_t used = 0;
+      const double v = std::stod(s, &used);
+      if (used != s.size() || !std::isfinite(v)) throw std::invalid_argument(s);
+      return v;
+    } catch (const std::exception&) {
+      throw UsageError(option + " '" + text + "': '" + s + "' is not a number of degrees");
+    }
+  };
+  std::vector<std::string> parts;
+  const char sep = text.find(':') != std::string::npos ? ':' : ',';
+  std::stringstream ss(text);
+  for (std::string p; std::getline(ss, p, sep);) parts.push_back(p);
+  if (sep == ':') {
+    if (parts.size() != 3) throw UsageError(option + " '" + text + "': expected START:STOP:STEP");
+    const double a = num(parts[0]), b = num(parts[1]), st = num(parts[2]);
+    if (!(st > 0) || b < a) throw UsageError(option + " '" + text + "': need STEP > 0 and STOP >= START");
+    if ((b - a) / st > 3600) throw UsageError(option + " '" + text + "': more than 3600 angles");
+    for (double v = a; v <= b + 1e-9; v += st) out.push_back(v);
+  } else {
+    for (const std::string& p : parts) out.push_back(num(p));
+  }
+  if (out.empty()) throw UsageError(option + ": no angles given");
+  return out;
+}
+
+void require_step_inputs(const std::filesystem::path& calibration_dir, const std::string& step,
+                         const std::filesystem::path& rig_file) {
+  std::string missing;
+  for (const std::string& f : procedure_step(step).needs)
+    if (!std::filesystem::exists(calibration_dir / f))
+      missing += fmt::format("\n  {}: run `paintlab calibrate {} --rig {}` first", (calibration_dir / f).string(),
+                             calibrate_step_for(f), rig_file.string());
+  if (!missing.empty()) throw CalibrationError("calibrate " + step + " needs what the calibration folder lacks:" + missing);
 }
 
 }  // namespace paintlab::calib

@@ -60,6 +60,43 @@ SimRig::~SimRig() {
   light_.reset();
 }
 
+namespace {
+
+// One frame of `radiance` through the simulated sensor at the request's exposure, gain and
+// depth; the camera's BlackLevel moves the sensor's black level (in the output's units).
+void expose_frame(SimWorld& world, const ImageF& radiance, const FrameRequest& r, std::uint16_t* out) {
+  ExposureSettings es;
+  es.exposure_s = r.exposure_s;
+  es.gain_db = r.gain_db;
+  const int bits = dev::bit_depth(r.format);
+  es.output_bits = bits;
+  const Image<std::uint16_t> raw = world.sensor().expose(radiance, es);
+  const auto& sp = world.config().sensor;
+  const double offset = (r.black_level - sp.black_level_dn) * std::ldexp(1.0, bits - sp.adc_bits);
+  const double max = std::ldexp(1.0, bits) - 1.0;
+  const int cw = std::min(r.width, raw.width()), ch = std::min(r.height, raw.height());
+  std::fill(out, out + static_cast<std::size_t>(r.width) * r.height, std::uint16_t{0});
+  for (int y = 0; y < ch; ++y)
+    for (int x = 0; x < cw; ++x)
+      out[static_cast<std::size_t>(y) * r.width + x] =
+          static_cast<std::uint16_t>(std::clamp(std::round(raw.at(x, y) + offset), 0.0, max));
+}
+
+}  // namespace
+
+FrameSource SimRig::static_source(std::shared_ptr<const ImageF> radiance) {
+  SimWorld* w = world_.get();
+  return [w, radiance](const FrameRequest& r, std::uint16_t* out) { expose_frame(*w, *radiance, r, out); };
+}
+
+void SimRig::show(std::shared_ptr<const ImageF> radiance) {
+  if (camera_) camera_->set_source(static_source(std::move(radiance)));
+}
+
+void SimRig::show_world() {
+  if (camera_) camera_->set_source(world_source());
+}
+
 FrameSource SimRig::world_source() {
   SimWorld* w = world_.get();
   TurntableServer* table = turntable_.get();
@@ -83,24 +120,7 @@ FrameSource SimRig::world_source() {
       }
       radiance = cache->radiance;
     }
-    ExposureSettings es;
-    es.exposure_s = r.exposure_s;
-    es.gain_db = r.gain_db;
-    const int bits = dev::bit_depth(r.format);
-    es.output_bits = bits;
-    Image<std::uint16_t> raw = w->sensor().expose(radiance, es);
-    // The camera's BlackLevel moves the sensor's black level (in the output's units).
-    const auto& sp = w->config().sensor;
-    const double scale = std::ldexp(1.0, bits - sp.adc_bits);
-    const double offset = (r.black_level - sp.black_level_dn) * scale;
-    const double max = std::ldexp(1.0, bits) - 1.0;
-    const int cw = std::min(r.width, raw.width()), ch = std::min(r.height, raw.height());
-    std::fill(out, out + static_cast<std::size_t>(r.width) * r.height, std::uint16_t{0});
-    for (int y = 0; y < ch; ++y)
-      for (int x = 0; x < cw; ++x) {
-        double v = raw.at(x, y) + offset;
-        out[static_cast<std::size_t>(y) * r.width + x] = static_cast<std::uint16_t>(std::clamp(std::round(v), 0.0, max));
-      }
+    expose_frame(*w, radiance, r, out);
   };
 }
 

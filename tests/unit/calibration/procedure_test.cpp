@@ -11,6 +11,7 @@
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
+#include "test_util.h"
 
 using namespace paintlab;
 using ::testing::HasSubstr;
@@ -54,4 +55,50 @@ TEST(Procedure, StandardFilesAndTheirStepsFollowTheTable) {
     EXPECT_THAT(e.what(), HasSubstr("no calibration step 'focus'"));
     EXPECT_THAT(e.what(), HasSubstr("intrinsics, dark, response, flat, sphere, light, scale"));
   }
+}
+
+TEST(Procedure, AnglesAreAListOrARangeWithItsEndIncluded) {
+  EXPECT_EQ(calib::parse_angles("90,270", "--angles"), (std::vector<double>{90, 270}));
+  EXPECT_EQ(calib::parse_angles("-40,0,40.5", "--angles"), (std::vector<double>{-40, 0, 40.5}));
+  const std::vector<double> range = calib::parse_angles("-150:150:10", "--angles");
+  ASSERT_EQ(range.size(), 31u);
+  EXPECT_DOUBLE_EQ(range.front(), -150.0);
+  EXPECT_NEAR(range.back(), 150.0, 1e-9);
+  EXPECT_EQ(calib::parse_angles("0:25:10", "--angles"), (std::vector<double>{0, 10, 20}));
+  // Every step of the procedure parses.
+  for (const calib::ProcedureStep& s : calib::calibration_procedure())
+    if (!s.angles.empty()) {
+      EXPECT_FALSE(calib::parse_angles(s.angles, s.name).empty()) << s.name;
+    }
+  const auto message = [](const std::string& text) {
+    try {
+      calib::parse_angles(text, "--angles");
+    } catch (const UsageError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(message("10,ten"), HasSubstr("--angles '10,ten': 'ten' is not a number of degrees"));
+  EXPECT_THAT(message("0:10"), HasSubstr("expected START:STOP:STEP"));
+  EXPECT_THAT(message("10:0:5"), HasSubstr("STOP >= START"));
+  EXPECT_THAT(message("0:10:0"), HasSubstr("STEP > 0"));
+  EXPECT_THAT(message("0:1e9:1e-3"), HasSubstr("more than 3600 angles"));
+  EXPECT_THAT(message("nan"), HasSubstr("not a number"));
+  EXPECT_THAT(message(""), HasSubstr("no angles given"));
+}
+
+TEST(Procedure, AStepWhoseInputsAreMissingNamesEachFileAndTheCommandThatMakesIt) {
+  test::TempDir tmp;
+  try {
+    calib::require_step_inputs(tmp.path(), "light", "/lab/rig.toml");
+    FAIL() << "no error";
+  } catch (const CalibrationError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("calibrate light needs"));
+    EXPECT_THAT(e.what(), HasSubstr("camera.json: run `paintlab calibrate intrinsics --rig /lab/rig.toml` first"));
+    EXPECT_THAT(e.what(), HasSubstr("sphere.json: run `paintlab calibrate sphere --rig /lab/rig.toml` first"));
+  }
+  test::write_text(tmp / calib::kCameraFile, "{}");
+  test::write_text(tmp / calib::kSphereFile, "{}");
+  EXPECT_NO_THROW(calib::require_step_inputs(tmp.path(), "light", "/lab/rig.toml"));
+  EXPECT_NO_THROW(calib::require_step_inputs(tmp.path(), "intrinsics", "/lab/rig.toml"));  // needs nothing
 }

@@ -40,6 +40,8 @@ struct DarkFrame {
   // Mean dark level at `exposure_s` over the non-hot pixels.
   double mean_level_dn(double exposure_s) const { return mean_bias_dn + mean_rate_dn_per_s * exposure_s; }
 
+  // Frames, black level, dark current, read noise (or why it is not measured), hot pixels.
+  std::string describe() const;
   Json to_json(const std::string& map_file, const std::string& map_sha256) const;
   // Writes `json_path` and, beside it, the maps as <stem>.exr (channels bias[.R/G/B],
   // rate[.R/G/B], hot), both atomically; the JSON names the EXR and its SHA-256.

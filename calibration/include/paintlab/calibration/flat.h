@@ -34,6 +34,8 @@ struct FlatField {
   int height() const { return gain.height(); }
   int channels() const { return gain.channels(); }
 
+  // Frames, mean signal, corner and vignetting ratios, pixel non-uniformity, conversion gain.
+  std::string describe() const;
   Json to_json(const std::string& map_file, const std::string& map_sha256) const;
   // Writes `json_path` and, beside it, <stem>.exr (channel flat, or flat.R/G/B), atomically.
   void save(const std::filesystem::path& json_path) const;

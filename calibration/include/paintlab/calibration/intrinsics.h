@@ -105,6 +105,10 @@ struct IntrinsicsResult {
   double median_corner_std_px = 0.0;  // corner localisation uncertainty from the fits
   Provenance provenance;
 
+  // What the technician reads after the step (several lines, no trailing newline): views used,
+  // RMS and worst corner, the intrinsics with their standard deviations, the k3 decision, the
+  // views dropped and why.
+  std::string describe() const;
   Json to_json() const;
   static IntrinsicsResult from_json(const Json& j, const std::string& where);
   void save(const std::filesystem::path& path) const;           // atomic

@@ -135,6 +135,9 @@ struct LightCalibration {
   std::string blur_source;
   Provenance provenance;
 
+  // Highlights used, residuals, the arm with its standard deviations, the blur and where it
+  // came from, and each highlight left out with the reason (several lines).
+  std::string describe() const;
   Json to_json() const;
   static LightCalibration from_json(const Json& j, const std::string& where);
   void save(const std::filesystem::path& path) const;

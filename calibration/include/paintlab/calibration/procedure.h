@@ -4,6 +4,7 @@
 // camera, whether the LED is lit and at which table angles it captures. `paintlab calibrate
 // all` runs the steps in this order, each `paintlab calibrate STEP` and `paintlab check`
 // name them from here, and the calibration folder's standard files are listed in this order.
+#include <filesystem>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -26,5 +27,15 @@ const std::vector<ProcedureStep>& calibration_procedure();
 
 // The step called `name`; UsageError listing the steps for another name.
 const ProcedureStep& procedure_step(std::string_view name);
+
+// Table angles in degrees from "a,b,c" or "START:STOP:STEP" (STOP included when the steps
+// reach it), the form of ProcedureStep::angles and of --angles. UsageError naming `option`,
+// the text and the bad part.
+std::vector<double> parse_angles(const std::string& text, const std::string& option);
+
+// CalibrationError naming each file step `step` needs (ProcedureStep::needs) that
+// `calibration_dir` lacks, and the command that makes it for the rig file `rig_file`.
+void require_step_inputs(const std::filesystem::path& calibration_dir, const std::string& step,
+                         const std::filesystem::path& rig_file);
 
 }  // namespace paintlab::calib

@@ -116,6 +116,8 @@ struct ResponseCurve {
   // g(u) = u over the whole range of `bit_depth` values (a camera known to be linear).
   static ResponseCurve identity(int bit_depth, int channels, const ValueWindow& window);
 
+  // Method, depth, knots, images, the used range, linearity and the noise model (lines).
+  std::string describe() const;
   Json to_json() const;
   static ResponseCurve from_json(const Json& j, const std::string& where);
   void save(const std::filesystem::path& path) const;         // atomic

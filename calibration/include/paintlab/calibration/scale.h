@@ -67,6 +67,9 @@ struct ScaleCalibration {
   // LED intensity (LightModel::irradiance with this profile exponent).
   double brdf(double rate, double irradiance) const { return rate / (scale * irradiance); }
 
+  // The scale with its uncertainty, the agreement between images, the LED profile and the
+  // saturated share, in one line.
+  std::string describe() const;
   Json to_json() const;
   static ScaleCalibration from_json(const Json& j, const std::string& where);
   void save(const std::filesystem::path& path) const;

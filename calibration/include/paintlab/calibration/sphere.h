@@ -102,6 +102,9 @@ struct SphereFit {
   // Pixel of the sphere centre's projection.
   Vec2 centre_px(const CameraModel& camera) const { return camera.project(centre_cam_m); }
 
+  // Centre with its standard deviation (mm, camera frame), silhouette RMS, edge points used,
+  // outline coverage and edge width, as the technician reads them.
+  std::string describe() const;
   Json to_json() const;  // edges are summarised, not listed
   static SphereFit from_json(const Json& j, const std::string& where);
   void save(const std::filesystem::path& path) const;

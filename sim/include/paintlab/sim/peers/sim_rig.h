@@ -48,6 +48,13 @@ class SimRig {
 
   // The frame source that renders the world (exposed for tests).
   FrameSource world_source();
+  // Frames of a fixed scene radiance (a board, a dark or uniform field) through the
+  // simulated sensor, exposed as world_source() exposes the world.
+  FrameSource static_source(std::shared_ptr<const ImageF> radiance);
+  // The camera shows `radiance` (a calibration target in front of the lens) until
+  // show_world() puts the sphere back in view.
+  void show(std::shared_ptr<const ImageF> radiance);
+  void show_world();
 
  private:
   std::unique_ptr<SimWorld> world_;

@@ -1,0 +1,23 @@
+#pragma once
+// What the simulator carries built in, so that `paintlab demo` and a simulated rig run from
+// anywhere: the simulated rig (examples/rig-sim.toml, embedded at build time) and the paint
+// a simulated sample wears unless told otherwise (paints/silver-metallic.toml).
+#include <string>
+
+#include "paintlab/brdf/paint.h"
+
+namespace paintlab::sim {
+
+// The text of examples/rig-sim.toml as built.
+const char* builtin_rig_toml();
+// The text of paints/silver-metallic.toml as built, and the paint it describes.
+const char* builtin_paint_toml();
+brdf::PaintSpec builtin_paint();
+
+// The rig `paintlab demo` writes: the built-in rig with its calibration folder "calib"
+// beside the rig file; with `quick`, half the resolution (pixels twice as large, the
+// simulated intrinsics and blur halved, pixel centres kept), light every 10 deg and 8
+// exposures. Numbers rounded to 6 significant digits, a comment line first.
+std::string demo_rig_toml(bool quick);
+
+}  // namespace paintlab::sim

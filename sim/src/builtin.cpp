@@ -1,0 +1,77 @@
+#include "paintlab/sim/builtin.h"
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include <sstream>
+#include <stdexcept>
+
+#include "paintlab/core/config.h"
+#include "paintlab/core/rig.h"
+#include "paintlab/sim/config.h"
+
+namespace paintlab::sim {
+
+namespace embedded {
+const char* rig_sim_toml();           // generated from examples/rig-sim.toml (cmake/EmbedText.cmake)
+const char* paint_silver_metallic_toml();  // generated from paints/silver-metallic.toml
+}  // namespace embedded
+
+const char* builtin_rig_toml() { return embedded::rig_sim_toml(); }
+const char* builtin_paint_toml() { return embedded::paint_silver_metallic_toml(); }
+
+brdf::PaintSpec builtin_paint() {
+  return brdf::parse_paint(ConfigTable::parse_string(builtin_paint_toml(), "silver-metallic.toml"));
+}
+
+namespace {
+
+// Sets `path` (e.g. "geometry.image_width_px") of the built-in rig to `value`. The key must
+// exist (the embedded rig is ours: a miss is a programming error, said plainly).
+template <class T>
+void set_key(toml::table& rig, std::string_view path, T value) {
+  const auto dot = path.rfind('.');
+  toml::table* parent = dot == std::string_view::npos ? &rig : rig.at_path(path.substr(0, dot)).as_table();
+  const std::string_view key = dot == std::string_view::npos ? path : path.substr(dot + 1);
+  if (!parent || !parent->contains(key))
+    throw std::logic_error(fmt::format("the built-in rig has no key {}", path));
+  parent->insert_or_assign(key, value);
+}
+
+}  // namespace
+
+std::string demo_rig_toml(bool quick) {
+  const std::string text = builtin_rig_toml();
+  toml::table rig = toml::parse(std::string_view(text), std::string_view("rig-sim.toml"));
+  set_key(rig, "calibration", std::string("calib"));
+  if (quick) {
+    const RigConfig full = RigConfig::parse(ConfigTable::parse_string(text, "rig-sim.toml"), "rig-sim.toml");
+    const SimConfig truth = SimConfig::from_rig(full);
+    const double s = 0.5;
+    auto num = [](double v) { return std::stod(fmt::format("{:.6g}", v)); };
+    set_key(rig, "geometry.image_width_px", std::int64_t{full.geometry.image_width_px / 2});
+    set_key(rig, "geometry.image_height_px", std::int64_t{full.geometry.image_height_px / 2});
+    set_key(rig, "geometry.pixel_size_um", num(full.geometry.pixel_size_um * 2));
+    const Mat3 K = truth.camera.K();
+    set_key(rig, "sim.camera.fx_px", num(K(0, 0) * s));
+    set_key(rig, "sim.camera.fy_px", num(K(1, 1) * s));
+    // Pixel centres: x' + 0.5 = (x + 0.5) / 2.
+    set_key(rig, "sim.camera.cx_px", num((K(0, 2) + 0.5) * s - 0.5));
+    set_key(rig, "sim.camera.cy_px", num((K(1, 2) + 0.5) * s - 0.5));
+    set_key(rig, "sim.camera.psf_sigma_px", num(truth.camera.psf_sigma_px * s));
+    set_key(rig, "plan.angle_step_deg", std::int64_t{10});
+    set_key(rig, "plan.bracket.count", std::int64_t{8});
+  }
+  std::ostringstream out;
+  out << (quick ? "# paintlab demo --quick: the built-in simulated rig (examples/rig-sim.toml) at half resolution,\n"
+                  "# light every 10 deg, 8 exposures; the keys are described in docs/rig.md.\n"
+                : "# paintlab demo: the built-in simulated rig (examples/rig-sim.toml); the keys are described in "
+                  "docs/rig.md.\n")
+      // Shortest round-tripping numbers (0.6, not 0.59999999999999998), strings in double quotes.
+      << toml::toml_formatter(rig, (toml::toml_formatter::default_flags & ~toml::format_flags::allow_literal_strings) |
+                                       toml::format_flags::relaxed_float_precision)
+      << "\n";
+  return out.str();
+}
+
+}  // namespace paintlab::sim

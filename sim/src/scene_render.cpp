@@ -1,0 +1,97 @@
+#include "paintlab/sim/scene_render.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "paintlab/core/enum_names.h"
+#include "paintlab/core/error.h"
+#include "paintlab/sim/paint.h"
+#include "paintlab/sim/scenes.h"
+
+namespace paintlab::sim {
+
+namespace {
+
+constexpr EnumNames<SceneKind, 6> kSceneNames{{
+    {SceneKind::Sphere, "sphere"},
+    {SceneKind::White, "white"},
+    {SceneKind::Chessboard, "chessboard"},
+    {SceneKind::Charuco, "charuco"},
+    {SceneKind::Flat, "flat"},
+    {SceneKind::Dark, "dark"},
+}};
+
+}  // namespace
+
+const char* to_string(SceneKind k) { return enum_name(kSceneNames, k); }
+
+SceneKind scene_kind_from_string(const std::string& s, std::string_view where) {
+  return enum_from_name(kSceneNames, s, "scene", where);
+}
+
+void SceneRequest::check() const {
+  if (!std::isfinite(angle_deg)) throw UsageError(fmt::format("scene angle_deg {}: must be finite", angle_deg));
+  if (!(albedo >= 0 && albedo <= 1)) throw UsageError(fmt::format("scene albedo {}: must be in [0, 1]", albedo));
+  if (view < 0 || view > 99) throw UsageError(fmt::format("scene view {}: must be in 0..99", view));
+  if (!(exposure_s > 0) || !std::isfinite(exposure_s))
+    throw UsageError(fmt::format("scene exposure_s {}: must be > 0", exposure_s));
+  if (channels != 1 && channels != 3) throw UsageError(fmt::format("scene channels {}: must be 1 or 3", channels));
+  if (threads < 0) throw UsageError(fmt::format("scene threads {}: must be >= 0 (0 = all cores)", threads));
+}
+
+SceneRender render_scene(SimWorld& world, const SceneRequest& q) {
+  q.check();
+  RenderOptions opt;
+  opt.mono = q.channels == 1;
+  opt.sparkle = q.sparkle;
+  opt.threads = q.threads;
+  SceneRender out;
+  switch (q.kind) {
+    case SceneKind::Sphere:
+      out.radiance = world.render_at(q.angle_deg, q.led_on, opt);
+      out.description = fmt::format("sphere{} at table angle {:g} deg{}",
+                                    q.paint_name.empty() ? "" : " painted '" + q.paint_name + "'", q.angle_deg,
+                                    q.led_on ? "" : ", LED off");
+      break;
+    case SceneKind::White:
+      out.radiance = world.render_with(reference_paint(q.albedo), q.angle_deg, q.led_on, opt);
+      out.description = fmt::format("white reference sphere (albedo {:g}) at table angle {:g} deg{}", q.albedo,
+                                    q.angle_deg, q.led_on ? "" : ", LED off");
+      break;
+    case SceneKind::Chessboard: {
+      const Chessboard board;
+      const auto poses = chessboard_poses(world.camera(), board, q.view + 1, world.config().seed);
+      PlaneLighting light;
+      light.irradiance_w_m2 = world.irradiance_for_fill(0.5, q.exposure_s, board.white_albedo);
+      out.radiance = render_chessboard(world.camera(), board, poses.back(), light, 16, q.channels, q.threads);
+      out.description = fmt::format("{}x{} chessboard of {:g} mm squares, view {}", board.cols, board.rows,
+                                    board.square_m * 1e3, q.view);
+      break;
+    }
+    case SceneKind::Charuco: {
+      const CharucoBoard board;
+      const auto poses = charuco_poses(world.camera(), board, q.view + 1, world.config().seed);
+      PlaneLighting light;
+      light.irradiance_w_m2 = world.irradiance_for_fill(0.5, q.exposure_s, board.white_albedo);
+      out.radiance = render_charuco(world.camera(), board, poses.back(), light, 16, q.channels, q.threads);
+      out.description = fmt::format("{}x{} ChArUco board of {:g} mm squares, {:g} mm DICT_6X6_250 markers, view {}",
+                                    board.squares_x, board.squares_y, board.square_m * 1e3, board.marker_m * 1e3,
+                                    q.view);
+      break;
+    }
+    case SceneKind::Flat: {
+      const double level = world.radiance_for_fill(0.5, q.exposure_s);
+      out.radiance = uniform_field(world.camera(), level, q.channels);
+      out.description = fmt::format("uniform field of {:.4g} W sr^-1 m^-2 (half the full well at the centre)", level);
+      break;
+    }
+    case SceneKind::Dark:
+      out.radiance = dark_field(world.camera(), q.channels);
+      out.description = "dark frame";
+      break;
+  }
+  return out;
+}
+
+}  // namespace paintlab::sim

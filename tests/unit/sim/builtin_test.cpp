@@ -1,0 +1,54 @@
+// What the simulator carries built in (sim/builtin.h): the rig `paintlab demo` writes, at full
+// size and --quick, and the paint a simulated sample wears unless told.
+#include "paintlab/sim/builtin.h"
+
+#include <gtest/gtest.h>
+
+#include "paintlab/core/config.h"
+#include "paintlab/core/rig.h"
+#include "paintlab/sim/config.h"
+
+using namespace paintlab;
+
+namespace {
+
+RigConfig parse_rig_text(const std::string& text) {
+  return RigConfig::parse(ConfigTable::parse_string(text, "rig.toml"), "/lab/demo/rig.toml");
+}
+
+}  // namespace
+
+TEST(Builtin, TheDemoRigIsTheBuiltInRigWithItsCalibrationBesideIt) {
+  const RigConfig built_in = parse_rig_text(sim::builtin_rig_toml());
+  const std::string text = sim::demo_rig_toml(false);
+  EXPECT_EQ(text.rfind("# paintlab demo:", 0), 0u);
+  const RigConfig demo = parse_rig_text(text);
+  EXPECT_EQ(demo.calibration_dir, std::filesystem::path("/lab/demo/calib"));
+  EXPECT_EQ(demo.geometry.image_width_px, built_in.geometry.image_width_px);
+  EXPECT_EQ(demo.plan.angles_deg(), built_in.plan.angles_deg());
+  EXPECT_EQ(demo.plan.exposures_s, built_in.plan.exposures_s);
+}
+
+TEST(Builtin, TheQuickDemoRigHasHalfTheResolutionWithTheSameOpticsAndAShortPlan) {
+  const RigConfig full = parse_rig_text(sim::builtin_rig_toml());
+  const RigConfig quick = parse_rig_text(sim::demo_rig_toml(true));
+  EXPECT_EQ(quick.geometry.image_width_px, full.geometry.image_width_px / 2);
+  EXPECT_EQ(quick.geometry.image_height_px, full.geometry.image_height_px / 2);
+  EXPECT_NEAR(quick.geometry.pixel_size_um, 2 * full.geometry.pixel_size_um, 1e-5 * full.geometry.pixel_size_um);
+  const Mat3 kf = sim::SimConfig::from_rig(full).camera.K();
+  const Mat3 kq = sim::SimConfig::from_rig(quick).camera.K();
+  EXPECT_NEAR(kq(0, 0), kf(0, 0) / 2, 1e-5 * kf(0, 0));
+  // The same point of the scene at the same place: pixel centres x' + 0.5 = (x + 0.5) / 2.
+  EXPECT_NEAR(kq(0, 2) + 0.5, (kf(0, 2) + 0.5) / 2, 1e-3);
+  EXPECT_NEAR(kq(1, 2) + 0.5, (kf(1, 2) + 0.5) / 2, 1e-3);
+  EXPECT_EQ(quick.plan.exposures_s.size(), 8u);
+  ASSERT_GE(quick.plan.angles_deg().size(), 2u);
+  EXPECT_NEAR(quick.plan.angles_deg()[1] - quick.plan.angles_deg()[0], 10.0, 1e-9);
+}
+
+TEST(Builtin, TheDefaultSamplePaintIsTheSilverMetallic) {
+  const brdf::PaintSpec p = sim::builtin_paint();
+  EXPECT_EQ(p.name, "silver-metallic");
+  ASSERT_NE(p.cook_torrance(), nullptr);
+  EXPECT_GE(p.cook_torrance()->lobes.size(), 2u);
+}

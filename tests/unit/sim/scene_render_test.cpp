@@ -1,0 +1,148 @@
+// The simulator's named scenes (sim/scene_render.h) and the fixed scenes a simulated rig's
+// camera shows (SimRig::show): what `paintlab sim render` writes and what the calibration
+// stages put in front of the simulated camera.
+#include "paintlab/sim/scene_render.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <memory>
+
+#include "paintlab/core/config.h"
+#include "paintlab/core/error.h"
+#include "paintlab/sim/paint.h"
+#include "paintlab/sim/peers/sim_rig.h"
+#include "sim_rigs.h"
+#include "sim_test_util.h"
+
+using namespace paintlab;
+using ::testing::HasSubstr;
+
+namespace {
+
+double image_centre(const ImageF& img) { return img.at(img.width() / 2, img.height() / 2, 0); }
+
+double peak_of(const ImageF& img) { return *std::max_element(img.values().begin(), img.values().end()); }
+
+}  // namespace
+
+TEST(SceneRender, EveryNamedSceneHasTheCamerasSizeAndTheRequestedChannels) {
+  sim::SimWorld world(sim::test::small_config());
+  for (const char* name : {"sphere", "white", "chessboard", "charuco", "flat", "dark"}) {
+    sim::SceneRequest q;
+    q.kind = sim::scene_kind_from_string(name);
+    EXPECT_STREQ(sim::to_string(q.kind), name);
+    q.channels = 3;
+    const sim::SceneRender r = sim::render_scene(world, q);
+    EXPECT_EQ(r.radiance.width(), 320) << name;
+    EXPECT_EQ(r.radiance.height(), 240) << name;
+    EXPECT_EQ(r.radiance.channels(), 3) << name;
+    EXPECT_FALSE(r.description.empty()) << name;
+  }
+}
+
+TEST(SceneRender, TheFlatFieldReachesHalfTheFullWellAtTheGivenExposureAndTheDarkFieldIsBlack) {
+  sim::SimWorld world(sim::test::small_config());
+  sim::SceneRequest q;
+  q.kind = sim::SceneKind::Flat;
+  q.exposure_s = 0.004;
+  const sim::SceneRender flat = sim::render_scene(world, q);
+  EXPECT_NEAR(image_centre(flat.radiance), world.radiance_for_fill(0.5, 0.004), 1e-6 * world.radiance_for_fill(0.5, 0.004));
+  EXPECT_FLOAT_EQ(peak_of(flat.radiance), static_cast<float>(world.radiance_for_fill(0.5, 0.004)));
+  // Twice the exposure: half the radiance.
+  q.exposure_s = 0.008;
+  EXPECT_NEAR(image_centre(sim::render_scene(world, q).radiance), 0.5 * image_centre(flat.radiance),
+              1e-6 * image_centre(flat.radiance));
+  q.kind = sim::SceneKind::Dark;
+  EXPECT_EQ(peak_of(sim::render_scene(world, q).radiance), 0.0f);
+}
+
+TEST(SceneRender, TheWhiteReferenceIsLitByTheLedAndNamesItsAlbedo) {
+  sim::SimWorld world(sim::test::small_config());
+  sim::SceneRequest q;
+  q.kind = sim::SceneKind::White;
+  q.albedo = 0.5;
+  q.angle_deg = 30.0;
+  const sim::SceneRender lit = sim::render_scene(world, q);
+  EXPECT_THAT(lit.description, HasSubstr("albedo 0.5"));
+  EXPECT_THAT(lit.description, HasSubstr("30 deg"));
+  EXPECT_GT(peak_of(lit.radiance), 0.0f);
+  q.albedo = 1.0;
+  EXPECT_NEAR(peak_of(sim::render_scene(world, q).radiance), 2.0 * peak_of(lit.radiance), 1e-3 * peak_of(lit.radiance));
+  q.led_on = false;
+  const sim::SceneRender off = sim::render_scene(world, q);
+  EXPECT_LT(peak_of(off.radiance), 1e-3 * peak_of(lit.radiance));
+  EXPECT_THAT(off.description, HasSubstr("LED off"));
+}
+
+TEST(SceneRender, BoardViewsDifferAndRepeat) {
+  sim::SimWorld world(sim::test::small_config());
+  sim::SceneRequest q;
+  q.kind = sim::SceneKind::Chessboard;
+  const ImageF v0 = sim::render_scene(world, q).radiance;
+  q.view = 1;
+  const sim::SceneRender v1 = sim::render_scene(world, q);
+  EXPECT_THAT(v1.description, HasSubstr("view 1"));
+  EXPECT_NE(v0.values(), v1.radiance.values());
+  EXPECT_EQ(sim::render_scene(world, q).radiance.values(), v1.radiance.values());
+}
+
+TEST(SceneRender, BadRequestsAreRefusedNamingTheField) {
+  sim::SimWorld world(sim::test::small_config());
+  sim::SceneRequest q;
+  q.channels = 2;
+  EXPECT_THROW(sim::render_scene(world, q), UsageError);
+  q = {};
+  q.exposure_s = 0.0;
+  try {
+    sim::render_scene(world, q);
+    FAIL() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("exposure_s"));
+  }
+  try {
+    sim::scene_kind_from_string("board", "--scene");
+    FAIL() << "no error";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--scene"));
+    EXPECT_THAT(e.what(), HasSubstr("chessboard"));
+  }
+}
+
+TEST(SimRigShow, AFixedSceneIsExposedThroughTheSensorWithTheCamerasBlackLevel) {
+  const std::string text = test::small_sim_rig();
+  const RigConfig rig = RigConfig::parse(ConfigTable::parse_string(text, "rig.toml"), "rig.toml");
+  sim::SimRigOptions o;
+  o.turntable = o.camera = o.light = false;  // no peer: only the world and its sensor
+  sim::SimRig sim_rig(rig, o);
+  sim::SimWorld& w = sim_rig.world();
+  const int width = w.camera().width(), height = w.camera().height();
+  sim::FrameRequest r;
+  r.exposure_s = 0.01;
+  r.format = dev::PixelFormat::Mono16;
+  r.width = width;
+  r.height = height;
+  std::vector<std::uint16_t> frame(static_cast<std::size_t>(width) * height);
+
+  // The lens cap: the black level (moved to the camera's) plus dark noise only.
+  r.black_level = 100.0;
+  sim::SceneRequest dark;
+  dark.kind = sim::SceneKind::Dark;
+  sim_rig.static_source(std::make_shared<ImageF>(sim::render_scene(w, dark).radiance))(r, frame.data());
+  const double scale16 = std::ldexp(1.0, 16 - w.config().sensor.adc_bits);
+  std::vector<std::uint16_t> sorted = frame;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  EXPECT_NEAR(sorted[sorted.size() / 2], 100.0 * scale16, 3.0 * scale16);
+
+  // A uniform field lit for half the full well at 10 ms: the centre sits near half the range.
+  sim::SceneRequest flat;
+  flat.kind = sim::SceneKind::Flat;
+  flat.exposure_s = 0.01;
+  r.black_level = w.config().sensor.black_level_dn;
+  sim_rig.static_source(std::make_shared<ImageF>(sim::render_scene(w, flat).radiance))(r, frame.data());
+  const double centre = frame[static_cast<std::size_t>(height / 2) * width + width / 2] / scale16;
+  const double black = w.config().sensor.black_level_dn;
+  const double half = 0.5 * (w.config().sensor.adc_max_dn() - black);
+  EXPECT_NEAR(centre - black, half, 0.1 * half);
+}
