@@ -60,6 +60,7 @@ struct CalibrateContext {
   std::optional<std::filesystem::path> images_dir;  // or images from files
   double albedo = 0.0;                              // the reference's (scale)
   std::string k3;                                   // intrinsics: "fix", "free", or empty (decided from the data)
+  acq::CalibrationRig capture;                      // the session's devices as a step captures through them
 };
 
 // What `paintlab calibrate all` runs for each step of the procedure

@@ -18,6 +18,7 @@
 
 #include "rig_devices.h"
 #include "calibrate_support.h"
+#include "paintlab/acquisition/calibration_steps.h"
 #include "paintlab/calibration/procedure.h"
 #include "paintlab/core/input_files.h"
 #include "cli.h"
@@ -41,35 +42,24 @@ namespace {
 
 Json provenance_devices(const CalibrateContext& c) { return c.session ? c.session->serials : Json::object(); }
 
-std::vector<fs::path> inputs_of(const std::vector<Shot>& shots) {
-  std::vector<fs::path> f;
-  for (const auto& s : shots)
-    if (!s.file.empty()) f.push_back(s.file);
-  return f;
-}
-
 fs::path out_file(const RigConfig& rig, const char* name) {
   fs::create_directories(rig.calibration_dir);
   return rig.calibration_dir / name;
 }
 
-// Images of one step: from files (the given list, or images_dir/<step>) or captured.
-std::vector<Shot> step_images(CalibrateContext& c, const std::string& step, const std::vector<std::string>& files,
-                              const std::vector<double>& angles, app::Target target, bool led_on, double fill,
-                              double quantile) {
-  std::vector<Shot> shots;
-  std::vector<fs::path> paths;
-  if (!files.empty()) paths = expand_input_files(files, "--images", kCalibrationImageExtensions);
+// Where a step's images come from: the given files, images_dir/<step> under `calibrate all
+// --images DIR`, or the devices.
+acq::StepImages step_images(CalibrateContext& c, const std::string& step, const std::vector<std::string>& files) {
+  acq::StepImages in;
+  if (!files.empty()) in.files = expand_input_files(files, "--images", kCalibrationImageExtensions);
   else if (c.images_dir)
-    paths = expand_input_files({(*c.images_dir / step).string()}, "--images", kCalibrationImageExtensions);
-  if (!paths.empty()) {
-    acq::Linearizer linearizer(load_radiometry(c.rig));
-    for (const auto& p : paths) shots.push_back(acq::load_shot(p, linearizer));
-    return shots;
+    in.files = expand_input_files({(*c.images_dir / step).string()}, "--images", kCalibrationImageExtensions);
+  if (in.files.empty() && c.session) {
+    c.capture = c.session->capture_rig();
+    in.capture = &c.capture;
   }
-  if (!c.session) throw UsageError("calibrate " + step + ": give --images or --capture");
-  acq::CalibrationRig rig = c.session->capture_rig();
-  return acq::capture_shots(rig, step, angles, target, led_on, fill, quantile);
+  in.devices = provenance_devices(c);
+  return in;
 }
 
 // The calibration files the steps `steps` write into the rig's calibration folder (and the
@@ -164,32 +154,18 @@ void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig)
   say("  wrote " + out.string());
 }
 
-calib::SphereFit run_sphere(CalibrateContext& c, const std::vector<std::string>& files, const std::string& angles) {
-  const calib::CameraModel cam = calib::load_camera_model(c.rig.calibration_dir / calib::kCameraFile);
-  std::vector<Shot> shots = step_images(c, "sphere", files, calib::parse_angles(angles, "--angles"), Target::WhiteReference, true,
-                                        0.7, 0.999);
-  std::vector<calib::SphereImage> images;
-  for (const auto& s : shots) images.push_back({s.name, s.rate});
-  calib::SphereOptions o;
-  o.radius_m = c.rig.geometry.sphere_radius_m;
-  calib::SphereFit fit = calib::fit_sphere(images, cam, o);
-  fit.provenance = calib::Provenance::make("sphere", inputs_of(shots), provenance_devices(c));
+void run_sphere(CalibrateContext& c, const std::vector<std::string>& files, const std::string& angles) {
+  const calib::SphereFit fit = acq::sphere_step(step_images(c, "sphere", files), calib::RigCalibration::load(c.rig),
+                                                c.rig, calib::parse_angles(angles, "--angles"));
   const fs::path out = out_file(c.rig, calib::kSphereFile);
   fit.save(out);
   say(fit.describe());
   say("  wrote " + out.string());
-  return fit;
 }
 
 void run_light(CalibrateContext& c, const std::vector<std::string>& files, const std::string& angles) {
-  const calib::RigCalibration cal = calib::RigCalibration::load(c.rig);
-  cal.require({calib::kCameraFile, calib::kSphereFile});
-  std::vector<Shot> shots =
-      step_images(c, "light", files, calib::parse_angles(angles, "--angles"), Target::GlossySphere, true, 0.8, 1.0);
-  std::vector<calib::HighlightImage> images;
-  for (const auto& s : shots) images.push_back(acq::highlight_image(s, "calibrate light"));
-  calib::LightCalibration l = calib::calibrate_light(images, cal.camera(), *cal.sphere(), c.rig.geometry);
-  l.provenance = calib::Provenance::make("light", inputs_of(shots), provenance_devices(c));
+  const calib::LightCalibration l = acq::light_step(step_images(c, "light", files), calib::RigCalibration::load(c.rig),
+                                                    c.rig, calib::parse_angles(angles, "--angles"));
   const fs::path out = out_file(c.rig, calib::kLightFile);
   l.save(out);
   say(l.describe());
@@ -203,25 +179,13 @@ void run_scale(CalibrateContext& c, const std::vector<std::string>& files, const
   if (!(albedo > 0) && c.session) albedo = c.session->stage->known_albedo();
   if (!(albedo > 0))
     throw UsageError("calibrate scale: give --albedo, the reference sphere's certified albedo (e.g. 0.99)");
-  std::vector<Shot> shots =
-      step_images(c, "scale", files, calib::parse_angles(angles, "--angles"), Target::WhiteReference, true, 0.7, 0.9999);
-  std::vector<calib::ReferenceImage> images;
-  for (const auto& s : shots) images.push_back(acq::reference_image(s, "calibrate scale"));
-  calib::ScaleOptions o;
-  o.albedo = albedo;
-  // The LED profile changes the irradiance by ~0.3 % across the sphere, as much as the lens
-  // vignetting does: it is only fitted on flat-fielded images.
-  o.fit_profile = cal.has(calib::kFlatFile);
-  if (!o.fit_profile) say("  no flat.json: the LED profile is not fitted (taken as uniform); run `paintlab calibrate flat` first to fit it");
-  calib::ScaleCalibration sc = calib::calibrate_scale(images, cal.camera(), *cal.sphere(), cal.light()->model, o);
-  sc.provenance = calib::Provenance::make("scale", inputs_of(shots), provenance_devices(c));
-  say(sc.describe());
-  if (sc.saturated_frac > c.rig.tolerances.saturated_frac)
-    throw CalibrationError(fmt::format("calibrate scale: the reference is saturated in {:.3f} % of its lit pixels (tolerance "
-                                       "{:.3f} %): shorten the exposure; scale.json was not written",
-                                       100 * sc.saturated_frac, 100 * c.rig.tolerances.saturated_frac));
+  if (!cal.has(calib::kFlatFile))
+    say("  no flat.json: the LED profile is not fitted (taken as uniform); run `paintlab calibrate flat` first to fit it");
+  const calib::ScaleCalibration sc =
+      acq::scale_step(step_images(c, "scale", files), cal, c.rig, calib::parse_angles(angles, "--angles"), albedo);
   const fs::path out = out_file(c.rig, calib::kScaleFile);
   sc.save(out);
+  say(sc.describe());
   say("  wrote " + out.string());
 }
 
@@ -299,7 +263,7 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
     void (*run)(CalibrateContext&, const std::vector<std::string>&, const std::string&);
   };
   const Geo geos[] = {
-      {"sphere", [](CalibrateContext& c, const std::vector<std::string>& f, const std::string& a) { run_sphere(c, f, a); }},
+      {"sphere", &run_sphere},
       {"light", &run_light},
       {"scale", &run_scale},
   };

@@ -155,6 +155,11 @@ class FakeCamera final : public dev::Camera {
     const double full = std::ldexp(1.0, dev::bit_depth(format)) - 1.0;
     const double v = pixel ? pixel(exposure_, light_.state) : (light_.state ? 100 + exposure_ * 1e5 : 5);
     f.pixels = Image<std::uint16_t>(width, height, 1, static_cast<std::uint16_t>(std::clamp(std::round(v), 0.0, full)));
+    if (image)
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x)
+          f.pixels.at(x, y) =
+              static_cast<std::uint16_t>(std::clamp(std::round(image(x, y, exposure_, light_.state)), 0.0, full));
     f.meta.exposure_s = exposure_;
     f.meta.frame_id = 65400 + captures;
     f.meta.timestamp_ns = static_cast<std::uint64_t>(clock_.now_s() * 1e9);
@@ -164,6 +169,8 @@ class FakeCamera final : public dev::Camera {
 
   std::function<void(int)> on_capture;
   std::function<double(double exposure_s, bool light_on)> pixel;
+  // When set: each pixel's value instead of pixel() (a scene with a shape, e.g. a sphere).
+  std::function<double(int x, int y, double exposure_s, bool light_on)> image;
   dev::ExposureRange range{1e-5, 1.0};
   dev::PixelFormat format = dev::PixelFormat::Mono16;
   int width = 8, height = 6;

@@ -1,0 +1,121 @@
+// The geometric calibration steps from images to result (acquisition/calibration_steps.h),
+// captured through in-memory devices whose camera sees a lit disc where the sphere is: the
+// step mounts the right target, lights the LED, turns the table to each angle, fits, and
+// records what it read; a step refuses before capturing when its inputs are missing.
+#include "paintlab/acquisition/calibration_steps.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cap_rig.h"
+#include "paintlab/calibration/intrinsics.h"
+#include "paintlab/calibration/record.h"
+#include "paintlab/core/error.h"
+#include "test_util.h"
+
+using namespace paintlab;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kStepW = 200, kStepH = 160;
+constexpr double kStepF = 1000.0, kDiscX = 110.0, kDiscY = 76.0, kDiscR = 40.0;
+
+// A pinhole camera (no distortion) of kStepW x kStepH pixels, saved as the rig's camera.json.
+void save_step_camera(const fs::path& dir) {
+  calib::IntrinsicsResult r;
+  r.camera.width_px = kStepW;
+  r.camera.height_px = kStepH;
+  r.camera.K << kStepF, 0, (kStepW - 1) / 2.0, 0, kStepF, (kStepH - 1) / 2.0, 0, 0, 1;
+  r.views_used = 12;
+  fs::create_directories(dir);
+  r.save(dir / calib::kCameraFile);
+}
+
+// The white reference as a disc lit at 2e5 DN/s (its edge box-filtered over the pixel) on a
+// dark background, only while the LED is on.
+void show_disc(test::CapRig& r) {
+  r.camera.width = kStepW;
+  r.camera.height = kStepH;
+  r.camera.image = [](int x, int y, double t, bool on) {
+    const double d = std::hypot(x - kDiscX, y - kDiscY);
+    const double inside = std::clamp(kDiscR - d + 0.5, 0.0, 1.0);
+    return test::kCapBlackDn + (on ? 2e5 * t * inside : 0.0);
+  };
+}
+
+RigConfig step_rig() {
+  RigConfig rig;
+  rig.file = "lab/rig.toml";
+  rig.geometry.sphere_radius_m = 0.04;
+  return rig;
+}
+
+}  // namespace
+
+TEST(CalibrationSteps, EachGeometricStepSaysWhatItMountsAndHowItExposes) {
+  EXPECT_EQ(acq::step_capture("sphere").target, acq::Target::WhiteReference);
+  EXPECT_EQ(acq::step_capture("light").target, acq::Target::GlossySphere);
+  EXPECT_DOUBLE_EQ(acq::step_capture("light").quantile, 1.0);
+  EXPECT_DOUBLE_EQ(acq::step_capture("scale").quantile, 0.9999);
+  for (const char* s : {"sphere", "light", "scale"}) EXPECT_TRUE(acq::step_capture(s).led_on) << s;
+  EXPECT_THROW(acq::step_capture("dark"), UsageError);
+}
+
+TEST(CalibrationSteps, TheSphereStepCapturesTheLitReferenceAtEachAngleAndFindsItsCentre) {
+  test::TempDir tmp;
+  save_step_camera(tmp / "calib");
+  test::CapRig r(tmp / "captures");
+  show_disc(r);
+  bool dark_capture = false;
+  r.camera.on_capture = [&](int) { dark_capture = dark_capture || !r.light.state; };
+  acq::StepImages in;
+  in.capture = &r.rig;
+  in.devices = {{"camera", "TEST-1"}};
+  const calib::RigCalibration cal = calib::RigCalibration::load(tmp / "calib");
+  const calib::SphereFit fit = acq::sphere_step(in, cal, step_rig(), {90.0, 270.0});
+
+  EXPECT_THAT(r.stage.calls, ElementsAre("mount the white reference sphere"));
+  EXPECT_FALSE(dark_capture);  // every frame with the LED on
+  EXPECT_FALSE(r.light.state);  // and off afterwards
+  EXPECT_EQ(r.table.angle_deg().value(), 270.0);
+  // The disc's centre ray, at the distance where a 40 mm sphere subtends its 40 px radius.
+  const Vec3 ray = cal.camera().ray(Vec2(kDiscX, kDiscY)).normalized();
+  EXPECT_LT(std::acos(std::clamp(fit.centre_cam_m.normalized().dot(ray), -1.0, 1.0)), 0.2 / kStepF);
+  const double distance = 0.04 / std::sin(std::atan(kDiscR / kStepF));
+  EXPECT_NEAR(fit.centre_cam_m.norm(), distance, 0.01 * distance);
+  // What it read: the two captures, kept in captures/sphere/, and the camera's serial.
+  ASSERT_EQ(fit.provenance.inputs.size(), 2u);
+  EXPECT_EQ(fs::path(fit.provenance.inputs[0].path).parent_path(), tmp / "captures" / "sphere");
+  EXPECT_EQ(fit.provenance.devices["camera"], "TEST-1");
+}
+
+TEST(CalibrationSteps, AStepMissingItsCalibrationFilesOrImagesRefusesBeforeCapturing) {
+  test::TempDir tmp;
+  save_step_camera(tmp / "calib");
+  test::CapRig r(tmp / "captures");
+  show_disc(r);
+  acq::StepImages in;
+  in.capture = &r.rig;
+  const calib::RigCalibration cal = calib::RigCalibration::load(tmp / "calib");
+  try {
+    acq::light_step(in, cal, step_rig(), {0.0});
+    FAIL() << "no error";
+  } catch (const CalibrationError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("sphere.json"));
+  }
+  EXPECT_THROW(acq::scale_step(in, cal, step_rig(), {0.0}, 0.99), CalibrationError);  // sphere.json, light.json
+  EXPECT_EQ(r.camera.captures, 0);
+  EXPECT_TRUE(r.stage.calls.empty());
+  // Neither files nor a rig to capture with.
+  try {
+    acq::sphere_step(acq::StepImages{}, cal, step_rig(), {90.0});
+    FAIL() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("calibrate sphere: give --images or --capture"));
+  }
+}
