@@ -22,6 +22,16 @@ constexpr EnumNames<SceneKind, 6> kSceneNames{{
     {SceneKind::Dark, "dark"},
 }};
 
+// A board at view q.view (pose v of v + 1 with the world's seed), lit so that its white
+// reaches half the full well at the image centre in q.exposure_s.
+template <class Board, class Poses, class Render>
+ImageF render_board(SimWorld& world, const SceneRequest& q, const Board& board, Poses poses_of, Render render) {
+  const auto poses = poses_of(world.camera(), board, q.view + 1, world.config().seed);
+  PlaneLighting light;
+  light.irradiance_w_m2 = world.irradiance_for_fill(0.5, q.exposure_s, board.white_albedo);
+  return render(world.camera(), board, poses.back(), light, 16, q.channels, q.threads);
+}
+
 }  // namespace
 
 const char* to_string(SceneKind k) { return enum_name(kSceneNames, k); }
@@ -61,20 +71,14 @@ SceneRender render_scene(SimWorld& world, const SceneRequest& q) {
       break;
     case SceneKind::Chessboard: {
       const Chessboard board;
-      const auto poses = chessboard_poses(world.camera(), board, q.view + 1, world.config().seed);
-      PlaneLighting light;
-      light.irradiance_w_m2 = world.irradiance_for_fill(0.5, q.exposure_s, board.white_albedo);
-      out.radiance = render_chessboard(world.camera(), board, poses.back(), light, 16, q.channels, q.threads);
+      out.radiance = render_board(world, q, board, chessboard_poses, render_chessboard);
       out.description = fmt::format("{}x{} chessboard of {:g} mm squares, view {}", board.cols, board.rows,
                                     board.square_m * 1e3, q.view);
       break;
     }
     case SceneKind::Charuco: {
       const CharucoBoard board;
-      const auto poses = charuco_poses(world.camera(), board, q.view + 1, world.config().seed);
-      PlaneLighting light;
-      light.irradiance_w_m2 = world.irradiance_for_fill(0.5, q.exposure_s, board.white_albedo);
-      out.radiance = render_charuco(world.camera(), board, poses.back(), light, 16, q.channels, q.threads);
+      out.radiance = render_board(world, q, board, charuco_poses, render_charuco);
       out.description = fmt::format("{}x{} ChArUco board of {:g} mm squares, {:g} mm DICT_6X6_250 markers, view {}",
                                     board.squares_x, board.squares_y, board.square_m * 1e3, board.marker_m * 1e3,
                                     q.view);
