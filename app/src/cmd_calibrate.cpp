@@ -22,7 +22,7 @@
 #include "paintlab/calibration/procedure.h"
 #include "paintlab/core/input_files.h"
 #include "cli.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/calibration/intrinsics.h"
 #include "paintlab/calibration/light.h"
 #include "paintlab/calibration/record.h"
@@ -67,7 +67,7 @@ acq::StepImages step_images(CalibrateContext& c, const std::string& step, const 
 // rig file before any device opens. `images`: --images as given; `out`: intrinsics' --out.
 void check_calibration_outputs(const std::string& rig_file, const std::vector<std::string>& images,
                                const std::vector<std::string>& steps, const std::string& out = "") {
-  OutputGuard guard;
+  fit::OutputGuard guard;
   guard.input("--rig", rig_file);
   if (images.size() == 1 && fs::is_directory(images[0]) && steps.size() > 1) {
     // calibrate all --images DIR: one subfolder per step.

@@ -18,7 +18,7 @@
 #include "rig_devices.h"
 #include "calibrate_support.h"
 #include "cli.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/calibration/dark.h"
 #include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/procedure.h"
@@ -251,7 +251,7 @@ void run_flat(const FlatArgs& a, const StepRun& run) {
 // it linearises with (given, or the rig's), before any device opens.
 template <class Args>
 void check_step_outputs(const Args& a, const std::optional<RigConfig>& rig, const fs::path& out, const char* step) {
-  OutputGuard guard;
+  fit::OutputGuard guard;
   if (!a.input.images.empty())
     guard.inputs("--images", expand_input_files(a.input.images, "--images", kRawImageExtensions));
   guard.input("--exposure-file", a.input.exposure_file).input("--rig", a.rig);

@@ -10,7 +10,7 @@
 #include "calibrate_support.h"
 #include "paintlab/core/input_files.h"
 #include "cli.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/calibration/check.h"
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
@@ -45,7 +45,7 @@ void register_check_commands(CLI::App& app) {
     {
       // check.json goes into the calibration folder: never over the live images, never into a
       // session or library.
-      OutputGuard guard;
+      fit::OutputGuard guard;
       guard.input("--rig", a->rig);
       if (!a->images.empty() && fs::is_directory(a->images)) {
         std::error_code ec;

@@ -21,7 +21,7 @@
 #include <sstream>
 
 #include "cli.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/brdf/paint.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/response.h"
@@ -199,7 +199,7 @@ int run_demo(const DemoArgs& a) {
     OutputSpec out("--out", a.out);
     out.folder = true;
     out.create_parents = true;
-    OutputGuard().input("--paint", a.paint).output(out).check();
+    fit::OutputGuard().input("--paint", a.paint).output(out).check();
   }
   const DemoPaint paint = demo_paint(a.paint);
   const std::string name = paint.spec.name;

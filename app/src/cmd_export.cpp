@@ -8,7 +8,7 @@
 
 #include "cli.h"
 #include "extract_options.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/input_files.h"
 #include "paintlab/core/json.h"
@@ -50,7 +50,7 @@ fs::path fitted_input_of(const fs::path& file) {
 }
 
 int run_export(const ExportArgs& a) {
-  OutputGuard guard;
+  fit::OutputGuard guard;
   for (const auto& in : a.inputs) guard.input("INPUT", in).input("what " + in + " was fitted to", fitted_input_of(in));
   guard.input("--calib", a.extract.calib);
   guard.output({"--axf", a.axf}).output({"--merl", a.merl}).output({"--fit-out", a.fit_out}).check();

@@ -12,7 +12,7 @@
 
 #include "cli.h"
 #include "extract_options.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/merl.h"
 #include "paintlab/calibration/rig_calibration.h"
@@ -63,7 +63,7 @@ int run_fit(const FitArgs& a) {
   req.check();
   const fs::path input(a.input);
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
-  OutputGuard().input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out}).check();
+  fit::OutputGuard().input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out}).check();
   const fit::FitInput in = fit::load_fit_input(input, bin_options(a.extract));
   if (in.stats) say(stats_line(*in.stats, in.table));
   for (const std::string& w : in.warnings) spdlog::warn("{}", w);
@@ -108,7 +108,7 @@ int run_bin(const BinArgs& a) {
     cov_spec = OutputSpec("--out", cov);
     cov_spec.beside = out;
   }
-  OutputGuard().input("SESSION", dir).input("--calib", a.extract.calib).output({"--out", out}).output(cov_spec).check();
+  fit::OutputGuard().input("SESSION", dir).input("--calib", a.extract.calib).output({"--out", out}).output(cov_spec).check();
   fit::BinnedSession s = fit::bin_session(acq::SessionDir::open(dir), bin_options(a.extract));
   say(stats_line(s.stats, s.binned.table));
   if (s.binned.table.count_in_state(brdf::BinState::Measured) == 0)

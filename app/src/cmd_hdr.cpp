@@ -11,7 +11,7 @@
 
 #include "rig_devices.h"
 #include "cli.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/core/error.h"
@@ -79,7 +79,7 @@ void register_hdr_commands(CLI::App& app) {
     {
       OutputSpec out_spec("--out", out);
       out_spec.create_parents = true;
-      OutputGuard()
+      fit::OutputGuard()
           .inputs("--images", expand_input_files(a->input.images, "--images", kRawImageExtensions))
           .input("--exposure-file", a->input.exposure_file)
           .input("--rig", a->rig)

@@ -4,7 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cli.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/fitting/export.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/paint_library.h"
@@ -34,7 +34,7 @@ int run_add(const LibraryArgs& a) {
   OutputSpec dir("--dir", a.dir);
   dir.folder = true;
   dir.create_parents = true;
-  OutputGuard().input("FILE", a.file).output(dir, fs::path(a.dir)).check();
+  fit::OutputGuard().input("FILE", a.file).output(dir, fs::path(a.dir)).check();
   const fit::LibraryEntry e = fit::library_add(a.dir, a.file, a.replace, a.name);
   say(fmt::format("added '{}' to {} ({}, {})", e.name, a.dir, e.model, e.file));
   return kExitOk;
@@ -86,7 +86,7 @@ int run_export(const LibraryArgs& a) {
   folder.create_parents = true;
   // The library is protected as a whole (nothing of it may be written over); the export may go
   // beside it, also into a folder that holds it.
-  OutputGuard().output({"--h5", a.h5}).output(folder).check();
+  fit::OutputGuard().output({"--h5", a.h5}).output(folder).check();
   const fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
   if (!a.h5.empty()) {
     lib.export_h5(a.h5);

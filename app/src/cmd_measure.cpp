@@ -9,7 +9,7 @@
 
 #include "cli.h"
 #include "measure_support.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/acquisition/adaptive.h"
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/acquisition/measurement.h"
@@ -83,7 +83,7 @@ int run_measure(const MeasureArgs& a) {
     OutputSpec out("--out", a.out);
     out.folder = true;
     out.create_parents = true;
-    OutputGuard().input("--rig", a.rig).input("--sim-paint", a.sim_paint).output(out, fs::path(a.out)).check();
+    fit::OutputGuard().input("--rig", a.rig).input("--sim-paint", a.sim_paint).output(out, fs::path(a.out)).check();
   }
   std::optional<acq::SessionDir> session;
   std::string rig_path = a.rig;

@@ -6,7 +6,7 @@
 #include <optional>
 
 #include "cli.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/fitting/export.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/preview.h"
@@ -52,7 +52,7 @@ int run_compare(const RenderArgs& a) {
 }
 
 int run_render(const RenderArgs& a) {
-  OutputGuard()
+  fit::OutputGuard()
       .input("PAINT", a.paint)
       .input("--env", a.env)
       .input("--compare", a.compare)

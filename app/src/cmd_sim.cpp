@@ -7,7 +7,7 @@
 
 #include "rig_devices.h"
 #include "cli.h"
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/image_io.h"
 #include "paintlab/core/rig.h"
@@ -50,7 +50,7 @@ int run_render(const RenderArgs& a) {
   if (a.threads < 0) throw UsageError("--threads must be >= 0 (0 = all cores)");
   if (!(a.gain_db >= 0 && a.gain_db <= 48)) throw UsageError("--gain-db must be in [0, 48]");
   if (a.scene == "sphere" && a.paint.empty()) throw UsageError("--paint is required for the sphere scene");
-  OutputGuard().input("--rig", a.rig).input("--paint", a.paint).output({"--out", a.out}).check();
+  fit::OutputGuard().input("--rig", a.rig).input("--paint", a.paint).output({"--out", a.out}).check();
 
   const RigConfig rig = load_rig(a.rig);
   sim::SimWorld world(sim::SimConfig::from_rig(rig));

@@ -1,4 +1,4 @@
-#include "output_guard.h"
+#include "paintlab/fitting/output_guard.h"
 
 #include "paintlab/acquisition/session_reader.h"
 #include "paintlab/core/error.h"
@@ -7,17 +7,17 @@
 
 namespace fs = std::filesystem;
 
-namespace paintlab::app {
+namespace paintlab::fit {
 
 std::optional<ProtectedDir> owned_folder_kind(const fs::path& dir) {
   if (acq::is_session_dir(dir))
     return ProtectedDir{dir, "session folder", "a measurement session is only written by `paintlab measure`"};
   std::error_code ec;
-  const fs::path index = dir / fit::kLibraryIndexFile;
+  const fs::path index = dir / kLibraryIndexFile;
   if (fs::is_regular_file(index, ec)) {
     try {
       const Json j = read_json_file(index);
-      if (j.is_object() && j.value("format", std::string()) == fit::kLibraryFormat)
+      if (j.is_object() && j.value("format", std::string()) == kLibraryFormat)
         return ProtectedDir{dir, "paint library",
                             "a library is changed only by `paintlab library add` and `paintlab library remove`"};
     } catch (const Error&) {
@@ -56,4 +56,4 @@ void OutputGuard::check() const {
   check_outputs_distinct(all);
 }
 
-}  // namespace paintlab::app
+}  // namespace paintlab::fit

@@ -1,7 +1,8 @@
 #pragma once
-// The outputs of a command checked before it does any work (core/output_path.h, issue 13):
+// The outputs of a paintlab command checked before it does any work (core/output_path.h):
 // each command lists what it reads and what it writes; the folders only their owner writes
-// are every measurement session and paint library at or above an output.
+// are every measurement session (acquisition) and paint library (fitting) at or above an
+// output, which is why this lives in fitting, the module that knows both.
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -10,7 +11,7 @@
 
 #include "paintlab/core/output_path.h"
 
-namespace paintlab::app {
+namespace paintlab::fit {
 
 // A session folder (acq::is_session_dir) or a paint library (index.json of format
 // "paintlab-library"), as a folder that only its owner writes; nullopt otherwise.
@@ -33,4 +34,4 @@ class OutputGuard {
   std::vector<std::pair<OutputSpec, std::optional<std::filesystem::path>>> outputs_;
 };
 
-}  // namespace paintlab::app
+}  // namespace paintlab::fit

@@ -1,0 +1,71 @@
+// The outputs of a command against its inputs and the folders paintlab owns
+// (fitting/output_guard.h): a session and a library are recognised by their files, an
+// output inside either is refused naming the flag, the command's own library is not.
+#include "paintlab/fitting/output_guard.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "paintlab/core/error.h"
+#include "paintlab/fitting/paint_library.h"
+#include "test_util.h"
+
+using namespace paintlab;
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string guard_error(const fit::OutputGuard& g) {
+  try {
+    g.check();
+  } catch (const UsageError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+}  // namespace
+
+TEST(OutputGuard, SessionsAndLibrariesAreKnownByTheirFiles) {
+  test::TempDir tmp;
+  test::write_text(tmp / "session" / "session.json", "{}");
+  test::write_text(tmp / "library" / fit::kLibraryIndexFile, R"({"format": "paintlab-library", "paints": []})");
+  test::write_text(tmp / "other" / fit::kLibraryIndexFile, R"({"format": "something else"})");
+  test::write_text(tmp / "broken" / fit::kLibraryIndexFile, "{not json");
+  ASSERT_TRUE(fit::owned_folder_kind(tmp / "session"));
+  EXPECT_EQ(fit::owned_folder_kind(tmp / "session")->what, "session folder");
+  ASSERT_TRUE(fit::owned_folder_kind(tmp / "library"));
+  EXPECT_EQ(fit::owned_folder_kind(tmp / "library")->what, "paint library");
+  EXPECT_FALSE(fit::owned_folder_kind(tmp / "other"));
+  EXPECT_FALSE(fit::owned_folder_kind(tmp / "broken"));
+  EXPECT_FALSE(fit::owned_folder_kind(tmp.path()));
+}
+
+TEST(OutputGuard, AnOutputInsideASessionOrLibraryOrOverAnInputIsRefusedByItsFlag) {
+  test::TempDir tmp;
+  test::write_text(tmp / "session" / "session.json", "{}");
+  test::write_text(tmp / "library" / fit::kLibraryIndexFile, R"({"format": "paintlab-library", "paints": []})");
+  test::write_text(tmp / "fit.json", "{}");
+
+  fit::OutputGuard into_session;
+  into_session.input("SESSION", tmp / "session").output({"--out", tmp / "session" / "table.merl"});
+  EXPECT_THAT(guard_error(into_session), HasSubstr("--out"));
+  EXPECT_THAT(guard_error(into_session), HasSubstr("paintlab measure"));
+
+  fit::OutputGuard over_input;
+  over_input.input("INPUT", tmp / "fit.json").output({"--out", tmp / "fit.json"});
+  EXPECT_THAT(guard_error(over_input), HasSubstr("--out"));
+
+  fit::OutputGuard into_library;
+  into_library.output({"--axf", tmp / "library" / "x.axf.h5"});
+  EXPECT_THAT(guard_error(into_library), HasSubstr("paint library"));
+  // The library the command owns (library add --dir) may be written.
+  fit::OutputGuard owner;
+  owner.output({"--dir", tmp / "library" / "x.axf.h5"}, tmp / "library");
+  EXPECT_EQ(guard_error(owner), "no error");
+  // Empty paths are left out.
+  fit::OutputGuard empty;
+  empty.input("--calib", "").output({"--hdr", ""});
+  EXPECT_EQ(guard_error(empty), "no error");
+}
