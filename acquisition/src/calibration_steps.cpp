@@ -85,4 +85,61 @@ calib::ScaleCalibration scale_step(const StepImages& in, const calib::RigCalibra
   return sc;
 }
 
+namespace {
+
+// The stack from files, or captured by `capture` when there are none.
+template <class Capture>
+calib::ExposureStack stack_of(const StackImages& in, const char* step, Capture capture) {
+  if (in.stack) return *in.stack;
+  if (!in.capture) throw UsageError(fmt::format("calibrate {}: give --images (or --rig R --capture)", step));
+  return capture(*in.capture);
+}
+
+std::vector<std::filesystem::path> read_files(const calib::ExposureStack& stack, const StackImages& in) {
+  std::vector<std::filesystem::path> files = stack.files;
+  files.insert(files.end(), in.also_read.begin(), in.also_read.end());
+  return files;
+}
+
+}  // namespace
+
+calib::DarkFrame dark_step(const StackImages& in, const calib::DarkOptions& options, int frames) {
+  options.check();
+  const calib::ExposureStack stack = stack_of(in, "dark", [&](CalibrationRig& rig) {
+    if (frames < 2) throw UsageError("calibrate dark: --frames must be >= 2 (read noise needs repeated frames)");
+    return capture_dark_stack(rig, frames, in.capture_dir);
+  });
+  calib::DarkFrame d = calib::calibrate_dark(stack.frames(), stack.bit_depth, options);
+  d.provenance = calib::Provenance::make("dark", read_files(stack, in), in.devices);
+  return d;
+}
+
+ResponseStep response_step(const StackImages& in, const calib::ResponseOptions& options, const calib::DarkFrame* dark,
+                           double angle_deg, int count) {
+  options.check();
+  ResponseStep out;
+  calib::ExposureStack stack = stack_of(in, "response", [&](CalibrationRig& rig) {
+    if (count < 3) throw UsageError("calibrate response: --count must be >= 3");
+    out.captured = capture_response_stack(rig, angle_deg, dark ? dark->mean_bias_dn : options.black_dn, count,
+                                          in.capture_dir);
+    return std::move(out.captured->stack);
+  });
+  if (!constant_ratio(stack.exposures_s, &out.constant_ratio)) out.constant_ratio = 0.0;
+  out.curve = calib::recover_response(stack.frames(), stack.bit_depth, options, dark);
+  out.curve.provenance = calib::Provenance::make("response", read_files(stack, in), in.devices);
+  return out;
+}
+
+calib::FlatField flat_step(const StackImages& in, const calib::ResponseCurve* response, const calib::DarkFrame* dark,
+                           int frames) {
+  const calib::ExposureStack stack = stack_of(in, "flat", [&](CalibrationRig& rig) {
+    if (frames < 1) throw UsageError("calibrate flat: --frames must be >= 1");
+    const double black = dark ? dark->mean_bias_dn : response ? response->window.black_dn : 0.0;
+    return capture_flat_stack(rig, black, frames, in.capture_dir);
+  });
+  calib::FlatField f = calib::calibrate_flat(stack.frames(), stack.bit_depth, {}, response, dark);
+  f.provenance = calib::Provenance::make("flat", read_files(stack, in), in.devices);
+  return f;
+}
+
 }  // namespace paintlab::acq

@@ -19,6 +19,7 @@
 #include "calibrate_support.h"
 #include "cli.h"
 #include "paintlab/fitting/output_guard.h"
+#include "paintlab/acquisition/calibration_steps.h"
 #include "paintlab/calibration/dark.h"
 #include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/procedure.h"
@@ -61,25 +62,6 @@ fs::path output_path(const Common& c, const std::optional<RigConfig>& rig, const
   throw UsageError(cmd + ": give --out FILE (or --rig R)");
 }
 
-std::vector<std::uint16_t> parse_colour(const std::string& text) {
-  std::vector<std::uint16_t> out;
-  if (text.empty()) return out;
-  std::size_t start = 0;
-  while (true) {
-    const auto comma = text.find(',', start);
-    const std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    char* end = nullptr;
-    const long v = std::strtol(item.c_str(), &end, 10);
-    if (item.empty() || end != item.c_str() + item.size() || v < 0 || v > 65535)
-      throw UsageError("--no-data: '" + item + "' is not a value 0..65535 (give R,G,B or one value)");
-    out.push_back(static_cast<std::uint16_t>(v));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  if (out.size() != 1 && out.size() != 3) throw UsageError("--no-data: give one value (mono) or R,G,B");
-  return out;
-}
-
 // One run of a step: the rig (when given), the devices (when capturing) or the folder of
 // `calibrate all --images DIR`, and the output file.
 struct StepRun {
@@ -87,22 +69,25 @@ struct StepRun {
   fs::path out;
   const char* step = "";
 
-  bool capturing(const Common& a) const {
-    return context && context->session && a.input.images.empty() && !context->images_dir;
-  }
-  // The stack from files: --images, or DIR/<step> (with its exposures.txt) under `calibrate all`.
-  calib::ExposureStack files(const Common& a) const {
-    if (!a.input.images.empty()) return load_stack_input(a.input);
-    if (context && context->images_dir) {
-      StackInput in;
-      in.images = {(*context->images_dir / step).string()};
-      in.bit_depth = a.input.bit_depth;
-      return load_stack_input(in);
+  // The frames: --images, DIR/<step> (with its exposures.txt) under `calibrate all --images
+  // DIR`, or captured into calib/captures/<step>/.
+  acq::StackImages images(const Common& a) const {
+    acq::StackImages in;
+    if (context && context->session) in.devices = context->session->serials;
+    if (!a.input.images.empty()) {
+      in.stack = load_stack_input(a.input);
+    } else if (context && context->images_dir) {
+      StackInput files;
+      files.images = {(*context->images_dir / step).string()};
+      files.bit_depth = a.input.bit_depth;
+      in.stack = load_stack_input(files);
+    } else if (context && context->session) {
+      context->capture = context->session->capture_rig();
+      in.capture = &context->capture;
+      in.capture_dir = context->rig.calibration_dir / "captures" / step;
     }
-    throw UsageError(fmt::format("calibrate {}: give --images (or --rig R --capture)", step));
+    return in;
   }
-  fs::path capture_dir() const { return context->rig.calibration_dir / "captures" / step; }
-  Json devices() const { return context && context->session ? context->session->serials : Json::object(); }
   // A calibration file of the rig, when there is a rig and the file exists.
   std::optional<fs::path> rig_file(const char* name) const {
     if (context && fs::exists(context->rig.calibration_dir / name)) return context->rig.calibration_dir / name;
@@ -124,18 +109,7 @@ struct DarkArgs : Common {
 void run_dark(const DarkArgs& a, const StepRun& run) {
   calib::DarkOptions opt;
   opt.hot_sigma = a.hot_sigma;
-  opt.check();
-  calib::ExposureStack stack;
-  if (run.capturing(a)) {
-    if (a.frames < 2) throw UsageError("calibrate dark: --frames must be >= 2 (read noise needs repeated frames)");
-    acq::CalibrationRig rig = run.context->session->capture_rig();
-    stack = acq::capture_dark_stack(rig, a.frames, run.capture_dir());
-  } else {
-    stack = run.files(a);
-  }
-  const auto frames = stack.frames();
-  calib::DarkFrame d = calib::calibrate_dark(frames, stack.bit_depth, opt);
-  d.provenance = calib::Provenance::make("dark", stack.files, run.devices());
+  const calib::DarkFrame d = acq::dark_step(run.images(a), opt, a.frames);
   if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
   d.save(run.out);
   run.refresh();
@@ -166,38 +140,27 @@ void run_response(const ResponseArgs& a, const StepRun& run) {
   opt.floor_dn = a.floor;
   opt.max_knots = a.knots;
   opt.smoothness = a.smoothness;
-  opt.no_data = parse_colour(a.no_data);
-  opt.check();
+  opt.no_data = calib::parse_no_data(a.no_data, "--no-data");
   std::optional<calib::DarkFrame> dark;
   std::optional<fs::path> dark_file;
   if (!a.dark.empty()) dark_file = fs::path(a.dark);
   else dark_file = run.rig_file(calib::kDarkFile);
   if (dark_file) dark = calib::DarkFrame::load(*dark_file);
 
-  calib::ExposureStack stack;
-  if (run.capturing(a)) {
-    if (a.count < 3) throw UsageError("calibrate response: --count must be >= 3");
-    acq::CalibrationRig rig = run.context->session->capture_rig();
-    acq::ResponseCapture r = acq::capture_response_stack(rig, a.angle_deg, dark ? dark->mean_bias_dn : a.black,
-                                                         a.count, run.capture_dir());
+  acq::StackImages in = run.images(a);
+  if (dark_file) in.also_read.push_back(*dark_file);
+  acq::ResponseStep step = acq::response_step(in, opt, dark ? &*dark : nullptr, a.angle_deg, a.count);
+  if (step.captured)
     say(fmt::format("response: white reference at {:.3g} ms (brightest pixels at {:.0f} % of the range); bracket "
                     "{:.3g}..{:.3g} ms, {} exposures",
-                    1e3 * r.top_s, 100.0 * acq::kResponseTopFill, 1e3 * r.min_s, 1e3 * r.max_s, a.count));
-    stack = std::move(r.stack);
-  } else {
-    stack = run.files(a);
-  }
-  double ratio = 0.0;
-  if (acq::constant_ratio(stack.exposures_s, &ratio))
+                    1e3 * step.captured->top_s, 100.0 * acq::kResponseTopFill, 1e3 * step.captured->min_s,
+                    1e3 * step.captured->max_s, a.count));
+  if (step.constant_ratio > 0)
     spdlog::warn("the exposures step by one ratio (x{:.3g}): the data then fix the curve only up to a periodic "
                  "ripple and the smoothness prior decides; a bracket with unequal steps is better "
                  "(docs/radiometry.md)",
-                 ratio);
-  const auto frames = stack.frames();
-  calib::ResponseCurve r = calib::recover_response(frames, stack.bit_depth, opt, dark ? &*dark : nullptr);
-  std::vector<fs::path> inputs = stack.files;
-  if (dark_file) inputs.push_back(*dark_file);
-  r.provenance = calib::Provenance::make("response", inputs, run.devices());
+                 step.constant_ratio);
+  const calib::ResponseCurve& r = step.curve;
   if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
   r.save(run.out);
   run.refresh();
@@ -223,22 +186,10 @@ void run_flat(const FlatArgs& a, const StepRun& run) {
   std::optional<calib::DarkFrame> dark;
   if (resp_file) resp = calib::ResponseCurve::load(*resp_file);
   if (dark_file) dark = calib::DarkFrame::load(*dark_file);
-  calib::ExposureStack stack;
-  if (run.capturing(a)) {
-    if (a.frames < 1) throw UsageError("calibrate flat: --frames must be >= 1");
-    acq::CalibrationRig rig = run.context->session->capture_rig();
-    const double black = dark ? dark->mean_bias_dn : resp ? resp->window.black_dn : 0.0;
-    stack = acq::capture_flat_stack(rig, black, a.frames, run.capture_dir());
-  } else {
-    stack = run.files(a);
-  }
-  const auto frames = stack.frames();
-  calib::FlatField f =
-      calib::calibrate_flat(frames, stack.bit_depth, {}, resp ? &*resp : nullptr, dark ? &*dark : nullptr);
-  std::vector<fs::path> inputs = stack.files;
-  if (resp_file) inputs.push_back(*resp_file);
-  if (dark_file) inputs.push_back(*dark_file);
-  f.provenance = calib::Provenance::make("flat", inputs, run.devices());
+  acq::StackImages in = run.images(a);
+  if (resp_file) in.also_read.push_back(*resp_file);
+  if (dark_file) in.also_read.push_back(*dark_file);
+  const calib::FlatField f = acq::flat_step(in, resp ? &*resp : nullptr, dark ? &*dark : nullptr, a.frames);
   if (run.out.has_parent_path()) fs::create_directories(run.out.parent_path());
   f.save(run.out);
   run.refresh();

@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <memory>
 #include <numeric>
@@ -28,6 +29,25 @@ constexpr EnumNames<Weighting, 3> kWeightingNames{{{Weighting::Robertson, "rober
                                                    {Weighting::InverseVariance, "inverse-variance"}}};
 constexpr EnumNames<ResponseMethod, 2> kResponseMethodNames{
     {{ResponseMethod::Robertson, "robertson"}, {ResponseMethod::Debevec, "debevec"}}};
+
+std::vector<std::uint16_t> parse_no_data(const std::string& text, std::string_view flag) {
+  std::vector<std::uint16_t> out;
+  if (text.empty()) return out;
+  std::size_t start = 0;
+  while (true) {
+    const auto comma = text.find(',', start);
+    const std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    char* end = nullptr;
+    const long v = std::strtol(item.c_str(), &end, 10);
+    if (item.empty() || end != item.c_str() + item.size() || v < 0 || v > 65535)
+      throw UsageError(fmt::format("{}: '{}' is not a value 0..65535 (give R,G,B or one value)", flag, item));
+    out.push_back(static_cast<std::uint16_t>(v));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (out.size() != 1 && out.size() != 3) throw UsageError(fmt::format("{}: give one value (mono) or R,G,B", flag));
+  return out;
+}
 
 const char* to_string(Weighting w) { return enum_name(kWeightingNames, w); }
 

@@ -119,3 +119,59 @@ TEST(CalibrationSteps, AStepMissingItsCalibrationFilesOrImagesRefusesBeforeCaptu
     EXPECT_THAT(e.what(), HasSubstr("calibrate sphere: give --images or --capture"));
   }
 }
+
+TEST(CalibrationSteps, TheDarkStepCapturesCappedFramesAndRecordsThemWithWhatElseItRead) {
+  test::TempDir tmp;
+  test::CapRig r(tmp / "captures");
+  r.scene(1e5, 100.0);  // 100 DN/s of dark current
+  acq::StackImages in;
+  in.capture = &r.rig;
+  in.capture_dir = tmp / "dark";
+  in.also_read = {tmp / "rig-extra.json"};
+  test::write_text(tmp / "rig-extra.json", "{}");
+  EXPECT_THROW(acq::dark_step(in, {}, 1), UsageError);  // read noise needs two frames
+  EXPECT_EQ(r.camera.captures, 0);
+  const calib::DarkFrame d = acq::dark_step(in, {}, 3);
+  EXPECT_THAT(r.stage.calls, ElementsAre("lens the lens cap", "lens nothing in front of the lens"));
+  EXPECT_EQ(d.frame_count, 6);
+  EXPECT_NEAR(d.mean_bias_dn, test::kCapBlackDn, 1.0);
+  EXPECT_NEAR(d.mean_rate_dn_per_s, 100.0, 10.0);
+  EXPECT_EQ(d.provenance.inputs.size(), 7u);  // six frames and the extra file
+  // No stack and nothing to capture with.
+  EXPECT_THROW(acq::dark_step(acq::StackImages{}, {}, 3), UsageError);
+}
+
+TEST(CalibrationSteps, TheResponseStepBracketsTheLitReferenceAndFindsALinearCamera) {
+  test::TempDir tmp;
+  test::CapRig r(tmp / "captures");
+  r.scene(1e6);
+  acq::StackImages in;
+  in.capture = &r.rig;
+  in.capture_dir = tmp / "response";
+  calib::ResponseOptions o;
+  o.black_dn = test::kCapBlackDn;
+  EXPECT_THROW(acq::response_step(in, o, nullptr, 90.0, 2), UsageError);
+  const acq::ResponseStep s = acq::response_step(in, o, nullptr, 90.0, 12);
+  ASSERT_TRUE(s.captured);
+  EXPECT_TRUE(s.captured->stack.images.empty());  // moved into the fit
+  EXPECT_EQ(s.constant_ratio, 0.0);  // the capture's bracket has unequal steps
+  EXPECT_THAT(r.stage.calls, ElementsAre("mount the white reference sphere"));
+  EXPECT_EQ(s.curve.provenance.inputs.size(), 12u);
+  EXPECT_LT(s.curve.report.linearity_error_rel, 0.02);
+}
+
+TEST(CalibrationSteps, TheFlatStepFromAStackCapturesNothing) {
+  test::TempDir tmp;
+  test::CapRig r(tmp / "captures");
+  r.scene(0.0, 4e5);
+  const calib::ExposureStack stack = acq::capture_flat_stack(r.rig, test::kCapBlackDn, 3, tmp / "flat");
+  const int captured = r.camera.captures;
+  acq::StackImages in;
+  in.stack = stack;
+  in.capture = &r.rig;  // ignored: the stack is given
+  const calib::FlatField f = acq::flat_step(in, nullptr, nullptr, 3);
+  EXPECT_EQ(r.camera.captures, captured);
+  EXPECT_EQ(f.frame_count, 3);
+  EXPECT_NEAR(f.corner_ratio, 1.0, 1e-6);  // a uniform field
+  EXPECT_EQ(f.provenance.inputs.size(), 3u);
+}

@@ -347,3 +347,17 @@ TEST(Response, NoDataColourIsIgnored) {
   for (int c = 0; c < 3; ++c)
     EXPECT_LT(calib::radiometry_test::max_relative_error(r, c, [&](double u) { return cam.truth(u); }, 13, 250), 0.02);
 }
+
+TEST(ResponseOptions, TheNoDataColourIsOneValueOrThreeNamedByTheFlag) {
+  EXPECT_TRUE(calib::parse_no_data("", "--no-data").empty());
+  EXPECT_EQ(calib::parse_no_data("0", "--no-data"), (std::vector<std::uint16_t>{0}));
+  EXPECT_EQ(calib::parse_no_data("255,0,65535", "--no-data"), (std::vector<std::uint16_t>{255, 0, 65535}));
+  for (const char* bad : {"1,2", "70000", "-1", "a,b,c", "1,,2", "1.5"}) {
+    try {
+      calib::parse_no_data(bad, "--no-data");
+      ADD_FAILURE() << bad << ": no error";
+    } catch (const UsageError& e) {
+      EXPECT_THAT(e.what(), ::testing::StartsWith("--no-data: ")) << bad;
+    }
+  }
+}

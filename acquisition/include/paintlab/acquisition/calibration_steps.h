@@ -1,16 +1,21 @@
 #pragma once
-// The geometric steps of the calibration procedure (calibration/procedure.h) from their
-// images to their result: sphere, light and scale read images from files or capture them
-// (calibration_capture.h), linearise them with the rig's response, dark and flat as they
-// are now, fit (calibration/sphere.h, light.h, scale.h) and record their provenance. The
-// caller saves the result and prints result.describe(); `paintlab calibrate STEP` and
-// `calibrate all` are this plus their options.
+// The steps of the calibration procedure (calibration/procedure.h) from their images to
+// their result. The radiometric steps (dark, response, flat) take an exposure stack read
+// from files or capture one (calibration_capture.h); the geometric steps (sphere, light,
+// scale) read images from files or capture them, linearise them with the rig's response,
+// dark and flat as they are now and fit (calibration/sphere.h, light.h, scale.h). Each
+// records its provenance; the caller saves the result and prints result.describe().
+// `paintlab calibrate STEP` and `calibrate all` are this plus their options.
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "paintlab/acquisition/calibration_capture.h"
+#include "paintlab/calibration/dark.h"
+#include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/light.h"
+#include "paintlab/calibration/response.h"
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/calibration/scale.h"
 #include "paintlab/calibration/sphere.h"
@@ -60,5 +65,37 @@ calib::LightCalibration light_step(const StepImages& in, const calib::RigCalibra
 // more of the reference's lit pixels are clipped than rig.tolerances.saturated_frac.
 calib::ScaleCalibration scale_step(const StepImages& in, const calib::RigCalibration& cal, const RigConfig& rig,
                                    const std::vector<double>& angles_deg, double albedo);
+
+// ---- The radiometric steps ----
+
+// Where a radiometric step's frames come from: a stack read from files (exposures known),
+// or without one, captures through `capture`, kept in `capture_dir` with exposures.txt.
+struct StackImages {
+  std::optional<calib::ExposureStack> stack;
+  CalibrationRig* capture = nullptr;
+  std::filesystem::path capture_dir;
+  std::vector<std::filesystem::path> also_read;  // calibration files the step uses (provenance)
+  Json devices = Json::object();
+};
+
+// The dark frame; captured: `frames` frames (>= 2, read noise needs repeats) at each end of
+// the plan's bracket, the lens capped and the LED off.
+calib::DarkFrame dark_step(const StackImages& in, const calib::DarkOptions& options, int frames);
+
+struct ResponseStep {
+  calib::ResponseCurve curve;
+  std::optional<ResponseCapture> captured;  // the bracket, when captured (its stack moved out)
+  double constant_ratio = 0.0;              // > 0: the exposures step by this one ratio (say so)
+};
+// The response curve; captured: `count` (>= 3) exposures of the white reference lit from the
+// side at `angle_deg`, bracketed around the brightest pixels (black level: the dark frame's,
+// else options.black_dn). `dark`: subtracted per pixel when given.
+ResponseStep response_step(const StackImages& in, const calib::ResponseOptions& options, const calib::DarkFrame* dark,
+                           double angle_deg, int count);
+
+// The flat field, linearised with `response` and `dark` when given; captured: `frames` (>= 1)
+// frames through the diffuser, the LED off.
+calib::FlatField flat_step(const StackImages& in, const calib::ResponseCurve* response, const calib::DarkFrame* dark,
+                           int frames);
 
 }  // namespace paintlab::acq

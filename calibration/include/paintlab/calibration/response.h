@@ -124,6 +124,10 @@ struct ResponseCurve {
   static ResponseCurve load(const std::filesystem::path& path);  // IoError / DataError naming the file
 };
 
+// The no-data colour of --no-data: "R,G,B" or one value (mono), each 0..65535; empty text:
+// none. UsageError naming `flag` and the bad item.
+std::vector<std::uint16_t> parse_no_data(const std::string& text, std::string_view flag);
+
 struct ResponseOptions {
   ResponseMethod method = ResponseMethod::Robertson;
   // Robertson's method weights with Weighting::Robertson, Debevec's with Weighting::Hat
