@@ -5,6 +5,7 @@
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/image_io.h"
 
 namespace paintlab::acq {
 
@@ -37,6 +38,28 @@ std::vector<Shot> step_shots(const StepImages& in, const calib::RigCalibration& 
   }
   if (!in.capture) throw UsageError("calibrate " + step + ": give --images or --capture");
   return capture_shots(*in.capture, step, angles_deg, how.target, how.led_on, how.fill, how.quantile);
+}
+
+calib::IntrinsicsResult intrinsics_step(const StepImages& in, const calib::BoardSpec& board,
+                                        const calib::IntrinsicsOptions& options, int views) {
+  std::vector<calib::BoardImage> images;
+  std::vector<std::filesystem::path> read;
+  if (!in.files.empty()) {
+    for (const auto& p : in.files) {
+      RawImage raw = read_raw_image(p);
+      images.push_back({p.filename().string(), std::move(raw.pixels), raw.bit_depth});
+      read.push_back(p);
+    }
+  } else {
+    if (!in.capture) throw UsageError("calibrate intrinsics: give --images or --capture");
+    if (views < 3) throw UsageError(fmt::format("calibrate intrinsics: --views {}: must be >= 3", views));
+    BoardViews captured = capture_board_views(*in.capture, board, views);
+    images = std::move(captured.images);
+    read = std::move(captured.files);
+  }
+  calib::IntrinsicsResult r = calib::calibrate_intrinsics(images, board, options);
+  r.provenance = calib::Provenance::make("intrinsics", read, in.devices);
+  return r;
 }
 
 calib::SphereFit sphere_step(const StepImages& in, const calib::RigCalibration& cal, const RigConfig& rig,

@@ -121,33 +121,14 @@ void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig)
   if (a.fix_k3 && a.free_k3) throw UsageError("calibrate intrinsics: give --fix-k3 or --free-k3, not both");
   o.fix_k3 = a.fix_k3;
   o.auto_fix_k3 = !a.fix_k3 && !a.free_k3;
-  std::vector<calib::BoardImage> images;
-  std::vector<fs::path> inputs;
-  std::vector<fs::path> paths;
-  if (!a.images.empty()) paths = expand_input_files(a.images, "--images", kCalibrationImageExtensions);
-  else if (c.images_dir)
-    paths = expand_input_files({(*c.images_dir / "intrinsics").string()}, "--images", kCalibrationImageExtensions);
-  if (!paths.empty()) {
-    for (const auto& p : paths) {
-      RawImage raw = read_raw_image(p);
-      images.push_back({p.filename().string(), std::move(raw.pixels), raw.bit_depth});
-      inputs.push_back(p);
-    }
-  } else {
-    if (!c.session) throw UsageError("calibrate intrinsics: give --images or --capture");
-    if (a.views < 3) throw UsageError("--views must be >= 3");
-    acq::CalibrationRig rig = c.session->capture_rig();
-    acq::BoardViews views = acq::capture_board_views(rig, board, a.views);
-    images = std::move(views.images);
-    inputs = std::move(views.files);
-  }
+  const acq::StepImages in = step_images(c, "intrinsics", a.images);
   if (have_rig) {
     const auto& g = c.rig.geometry;
     o.initial_focal_px = g.focal_length_mm / (g.pixel_size_um * 1e-3);
-    o.min_views = std::max(3, std::min(c.rig.tolerances.min_views, static_cast<int>(images.size())));
+    const int views = in.files.empty() ? a.views : static_cast<int>(in.files.size());
+    o.min_views = std::max(3, std::min(c.rig.tolerances.min_views, views));
   }
-  calib::IntrinsicsResult r = calib::calibrate_intrinsics(images, board, o);
-  r.provenance = calib::Provenance::make("intrinsics", inputs, provenance_devices(c));
+  const calib::IntrinsicsResult r = acq::intrinsics_step(in, board, o, a.views);
   const fs::path out = a.out.empty() ? out_file(c.rig, calib::kCameraFile) : fs::path(a.out);
   r.save(out);
   say(r.describe());

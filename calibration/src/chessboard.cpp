@@ -266,14 +266,28 @@ ChessboardDetection detect_chessboard(const Image<std::uint16_t>& image, int bit
   board.check();
   options.check();
   ChessboardDetection det;
+  // A square needs a few pixels to be found at all (OpenCV's detectors assert on images
+  // smaller than their filters), in either orientation of the board.
+  const int small_side = std::min(image.width(), image.height()), large_side = std::max(image.width(), image.height());
+  if (small_side < 3 * (std::min(board.cols, board.rows) + 1) || large_side < 3 * (std::max(board.cols, board.rows) + 1)) {
+    det.reason = fmt::format("the image ({}x{} px) is too small to hold a {}x{} chessboard", image.width(),
+                             image.height(), board.cols, board.rows);
+    return det;
+  }
   cv::Mat img = detail::to_unit_float(image, bit_depth);
   cv::Mat img8 = detail::to_detection_u8(img);
   const cv::Size pattern(board.cols, board.rows);
   std::vector<cv::Point2f> pts;
-  bool found = cv::findChessboardCorners(img8, pattern, pts, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
-  if (!found) {
-    pts.clear();
-    found = cv::findChessboardCornersSB(img8, pattern, pts, cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_EXHAUSTIVE);
+  bool found = false;
+  try {
+    found = cv::findChessboardCorners(img8, pattern, pts, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
+    if (!found) {
+      pts.clear();
+      found = cv::findChessboardCornersSB(img8, pattern, pts, cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_EXHAUSTIVE);
+    }
+  } catch (const cv::Exception& e) {
+    det.reason = std::string("OpenCV could not search the image for a chessboard: ") + e.what();
+    return det;
   }
   if (!found || static_cast<int>(pts.size()) != board.corner_count()) {
     det.reason = "no " + std::to_string(board.cols) + "x" + std::to_string(board.rows) +

@@ -7,6 +7,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <cmath>
 
 #include "cap_rig.h"
@@ -174,4 +176,36 @@ TEST(CalibrationSteps, TheFlatStepFromAStackCapturesNothing) {
   EXPECT_EQ(f.frame_count, 3);
   EXPECT_NEAR(f.corner_ratio, 1.0, 1e-6);  // a uniform field
   EXPECT_EQ(f.provenance.inputs.size(), 3u);
+}
+
+TEST(CalibrationSteps, TheIntrinsicsStepAsksTheStageForEachViewOrReadsTheFiles) {
+  test::TempDir tmp;
+  test::CapRig r(tmp / "captures");
+  r.scene(0.0, 1e6);  // a blank view: no chessboard in it
+  acq::StepImages in;
+  in.capture = &r.rig;
+  const calib::BoardSpec board = calib::BoardSpec::parse("9x6", 20.0);
+  try {
+    acq::intrinsics_step(in, board, {}, 2);
+    FAIL() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--views 2: must be >= 3"));
+  }
+  EXPECT_TRUE(r.stage.calls.empty());
+  // Three blank views are captured, each shown by the stage; none can hold a board (8 x 6
+  // pixels), which the error says.
+  try {
+    acq::intrinsics_step(in, board, {}, 3);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("too small to hold a 9x6 chessboard"));
+  }
+  EXPECT_THAT(r.stage.calls, ElementsAre("board 0/3", "board 1/3", "board 2/3", "mount the sample sphere"));
+  // From files: the captured views read back, nothing captured again.
+  acq::StepImages files;
+  for (int v = 0; v < 3; ++v) files.files.push_back(tmp / "captures" / "intrinsics" / fmt::format("view{:02d}.png", v));
+  const int captured = r.camera.captures;
+  EXPECT_THROW(acq::intrinsics_step(files, board, {}, 3), Error);
+  EXPECT_EQ(r.camera.captures, captured);
+  EXPECT_THROW(acq::intrinsics_step(acq::StepImages{}, board, {}, 3), UsageError);
 }

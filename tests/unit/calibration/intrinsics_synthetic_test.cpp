@@ -362,3 +362,16 @@ TEST(IntrinsicsSynthetic, AutoK3IsFixedWhereTheViewsCannotTellItAndKeptWhereThey
   EXPECT_TRUE(back.k3.fixed);
   EXPECT_EQ(back.k3.note, a.k3.note);
 }
+
+TEST(IntrinsicsSynthetic, AnImageTooSmallForTheBoardIsNotDetectedAndSaysWhy) {
+  // OpenCV's detectors assert on images smaller than their filters: an 8 x 6 frame is a view
+  // without a board, not a crash.
+  const Image<std::uint16_t> tiny(8, 6, 1, 30000);
+  const calib::ChessboardDetection d = calib::detect_chessboard(tiny, 16, calib::BoardSpec::parse("9x6", 20.0), {});
+  EXPECT_FALSE(d.found);
+  EXPECT_THAT(d.reason, ::testing::HasSubstr("8x6 px) is too small to hold a 9x6 chessboard"));
+  // Rotated boards fit either way: 30 x 21 px holds a 9x6 board on its side too.
+  const Image<std::uint16_t> enough(21, 30, 1, 30000);
+  EXPECT_THAT(calib::detect_chessboard(enough, 16, calib::BoardSpec::parse("9x6", 20.0), {}).reason,
+              ::testing::HasSubstr("no 9x6 chessboard found"));
+}

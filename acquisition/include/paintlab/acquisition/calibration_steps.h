@@ -51,6 +51,11 @@ StepCapture step_capture(const std::string& step);
 std::vector<Shot> step_shots(const StepImages& in, const calib::RigCalibration& cal, const std::string& step,
                              const std::vector<double>& angles_deg);
 
+// The camera's intrinsics from chessboard views: the files (8 or 16 bit), or `views` (>= 3)
+// captured as the stage shows the board in each.
+calib::IntrinsicsResult intrinsics_step(const StepImages& in, const calib::BoardSpec& board,
+                                        const calib::IntrinsicsOptions& options, int views);
+
 // The sphere's centre from its silhouette (needs camera.json; the radius from the rig).
 calib::SphereFit sphere_step(const StepImages& in, const calib::RigCalibration& cal, const RigConfig& rig,
                              const std::vector<double>& angles_deg);
