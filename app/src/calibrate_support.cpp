@@ -135,6 +135,25 @@ acq::HdrCalibration load_radiometry(const RigConfig& rig) {
 
 std::shared_ptr<CalibrationRunners> make_calibration_runners() { return std::make_shared<CalibrationRunners>(); }
 
+void check_step_outputs(fit::OutputGuard guard, const std::string& rig_file, const std::vector<std::string>& steps,
+                        const fs::path& out) {
+  guard.input("--rig", rig_file);
+  const fs::path dir = out.empty() ? load_rig(rig_file).calibration_dir : fs::path();
+  for (const std::string& step : steps) {
+    const fs::path json = out.empty() ? dir / calib::procedure_step(step).file : out;
+    std::vector<fs::path> written = {json};
+    if (step == "dark" || step == "flat") written.push_back(fs::path(json).replace_extension(".exr"));
+    for (const fs::path& w : written) {
+      OutputSpec spec(out.empty() ? "--rig" : "--out", w);
+      if (out.empty()) spec.beside = rig_file;
+      else if (w != out) spec.beside = out;
+      spec.create_parents = true;
+      guard.output(spec);
+    }
+  }
+  guard.check();
+}
+
 Json device_serials(RigDevices& d, const RigConfig& rig) {
   // The camera's serial number; the turntable and LED have none over their protocols, so
   // their kind and address stand for them (not for simulated peers, whose ports change).

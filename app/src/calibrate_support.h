@@ -19,6 +19,7 @@
 #include "paintlab/core/json.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/devices/camera.h"
+#include "paintlab/fitting/output_guard.h"
 #include "rig_devices.h"
 
 namespace paintlab::app {
@@ -70,5 +71,12 @@ struct CalibrateContext {
 struct CalibrationRunners {
   std::map<std::string, std::function<void(CalibrateContext&)>> by_step;
 };
+
+// The files the calibration steps `steps` write (each .json, and the .exr beside dark's and
+// flat's) checked before any device opens against what they read: `guard`'s inputs (images,
+// exposure file, calibration files used) and the rig file. `out`: the one step's --out; empty:
+// the rig's calibration folder. UsageError naming the flag.
+void check_step_outputs(fit::OutputGuard guard, const std::string& rig_file, const std::vector<std::string>& steps,
+                        const std::filesystem::path& out = {});
 
 }  // namespace paintlab::app

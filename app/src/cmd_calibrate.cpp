@@ -62,15 +62,11 @@ acq::StepImages step_images(CalibrateContext& c, const std::string& step, const 
   return in;
 }
 
-// The calibration files the steps `steps` write into the rig's calibration folder (and the
-// .exr dark and flat write beside their .json), checked against the images they read and the
-// rig file before any device opens. `images`: --images as given; `out`: intrinsics' --out.
-void check_calibration_outputs(const std::string& rig_file, const std::vector<std::string>& images,
-                               const std::vector<std::string>& steps, const std::string& out = "") {
+// The images a command reads: --images as given, or every file under `calibrate all
+// --images DIR` (one subfolder per step).
+fit::OutputGuard images_read(const std::vector<std::string>& images, bool all) {
   fit::OutputGuard guard;
-  guard.input("--rig", rig_file);
-  if (images.size() == 1 && fs::is_directory(images[0]) && steps.size() > 1) {
-    // calibrate all --images DIR: one subfolder per step.
+  if (all && images.size() == 1 && fs::is_directory(images[0])) {
     std::vector<fs::path> files;
     std::error_code ec;
     for (auto it = fs::recursive_directory_iterator(images[0], ec); !ec && it != fs::recursive_directory_iterator();
@@ -80,23 +76,7 @@ void check_calibration_outputs(const std::string& rig_file, const std::vector<st
   } else if (!images.empty()) {
     guard.inputs("--images", expand_input_files(images, "--images", kCalibrationImageExtensions));
   }
-  if (!out.empty()) {
-    guard.output({"--out", out});
-  } else {
-    const fs::path dir = load_rig(rig_file).calibration_dir;
-    for (const std::string& step : steps) {
-      const std::string file = calib::procedure_step(step).file;
-      std::vector<fs::path> written = {dir / file};
-      if (step == "dark" || step == "flat") written.push_back(fs::path(dir / file).replace_extension(".exr"));
-      for (const fs::path& w : written) {
-        OutputSpec spec("--rig", w);
-        spec.beside = rig_file;
-        spec.create_parents = true;
-        guard.output(spec);
-      }
-    }
-  }
-  guard.check();
+  return guard;
 }
 
 // ---- the steps ----
@@ -130,6 +110,7 @@ void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a, bool have_rig)
   }
   const calib::IntrinsicsResult r = acq::intrinsics_step(in, board, o, a.views);
   const fs::path out = a.out.empty() ? out_file(c.rig, calib::kCameraFile) : fs::path(a.out);
+  if (out.has_parent_path()) fs::create_directories(out.parent_path());
   r.save(out);
   say(r.describe());
   say("  wrote " + out.string());
@@ -216,12 +197,12 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
         if (a->images.empty() || a->out.empty())
           throw UsageError("calibrate intrinsics: without --rig give --images FILES... and --out FILE");
         if (common->capture) throw UsageError("calibrate intrinsics: --capture needs --rig");
-        check_calibration_outputs("", a->images, {"intrinsics"}, a->out);
+        check_step_outputs(images_read(a->images, false), "", {"intrinsics"}, a->out);
         CalibrateContext c;
         run_intrinsics(c, *a, false);
         return kExitOk;
       }
-      check_calibration_outputs(common->rig, a->images, {"intrinsics"}, a->out);
+      check_step_outputs(images_read(a->images, false), common->rig, {"intrinsics"}, a->out);
       std::unique_ptr<CalibSession> keep;
       CalibrateContext c = context(common->rig, common->capture, 0.0, &keep);
       run_intrinsics(c, *a, true);
@@ -267,7 +248,7 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
         const RigConfig rig = load_rig(a->rig);
         calib::require_step_inputs(rig.calibration_dir, name, rig.file);
       }  // before any device opens
-      check_calibration_outputs(a->rig, a->images, {name});
+      check_step_outputs(images_read(a->images, false), a->rig, {name});
       CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);
       run(c, a->images, a->angles);
       return kExitOk;
@@ -294,8 +275,8 @@ void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunne
       {
         std::vector<std::string> steps;
         for (const calib::ProcedureStep& step : calib::calibration_procedure()) steps.push_back(step.name);
-        check_calibration_outputs(a->rig, dir->empty() ? std::vector<std::string>{} : std::vector<std::string>{*dir},
-                                  steps);
+        check_step_outputs(images_read(dir->empty() ? std::vector<std::string>{} : std::vector<std::string>{*dir}, true),
+                           a->rig, steps);
       }
       std::unique_ptr<CalibSession> keep;
       CalibrateContext c = context(a->rig, a->capture, a->albedo, &keep);

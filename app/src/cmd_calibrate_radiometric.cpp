@@ -197,15 +197,14 @@ void run_flat(const FlatArgs& a, const StepRun& run) {
   say("  wrote " + run.out.string() + " and " + fs::path(run.out).replace_extension(".exr").string());
 }
 
-// The output of a step (and the .exr dark and flat write beside their .json) checked against
-// what the step reads: the images, the exposure file, the rig file, the dark frame and response
-// it linearises with (given, or the rig's), before any device opens.
+// What a step reads besides the rig: the images, the exposure file, the dark frame and
+// response it linearises with (given, or the rig's).
 template <class Args>
-void check_step_outputs(const Args& a, const std::optional<RigConfig>& rig, const fs::path& out, const char* step) {
+fit::OutputGuard step_inputs(const Args& a, const std::optional<RigConfig>& rig) {
   fit::OutputGuard guard;
   if (!a.input.images.empty())
     guard.inputs("--images", expand_input_files(a.input.images, "--images", kRawImageExtensions));
-  guard.input("--exposure-file", a.input.exposure_file).input("--rig", a.rig);
+  guard.input("--exposure-file", a.input.exposure_file);
   auto used = [&](const char* flag, const std::string& given, const char* name) {
     if (!given.empty()) guard.input(flag, given);
     else if (rig && fs::exists(rig->calibration_dir / name))
@@ -213,18 +212,7 @@ void check_step_outputs(const Args& a, const std::optional<RigConfig>& rig, cons
   };
   if constexpr (requires { a.dark; }) used("--dark", a.dark, calib::kDarkFile);
   if constexpr (requires { a.response; }) used("--response", a.response, calib::kResponseFile);
-  const std::string flag = a.out.empty() ? "--rig" : "--out";
-  OutputSpec json(flag, out);
-  if (a.out.empty()) json.beside = a.rig;
-  json.create_parents = true;
-  guard.output(json);
-  if (std::string(step) == "dark" || std::string(step) == "flat") {
-    OutputSpec exr(flag, fs::path(out).replace_extension(".exr"));
-    exr.beside = a.out.empty() ? fs::path(a.rig) : out;
-    exr.create_parents = true;
-    guard.output(exr);
-  }
-  guard.check();
+  return guard;
 }
 
 // The stand-alone command: rig and devices as the options say, then the step.
@@ -235,7 +223,7 @@ void run_command(const Args& a, const char* step, const char* file, void (*run)(
   StepRun r;
   r.step = step;
   r.out = output_path(a, rig, file, std::string("calibrate ") + step);
-  check_step_outputs(a, rig, r.out, step);
+  check_step_outputs(step_inputs(a, rig), a.rig, {step}, a.out.empty() ? fs::path() : r.out);
   CalibrateContext c;
   std::unique_ptr<CalibSession> keep;
   if (rig) {
