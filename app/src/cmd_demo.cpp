@@ -78,8 +78,6 @@ DemoPaint demo_paint(const std::string& file) {
   return p;
 }
 
-volatile std::sig_atomic_t g_child = 0;
-
 // Runs `paintlab ARGS...` as a child (output goes to the terminal), returns its exit code
 // and adds its wall time to `seconds`.
 int run_step(const std::vector<std::string>& args, double& seconds) {
@@ -88,20 +86,9 @@ int run_step(const std::vector<std::string>& args, double& seconds) {
   say("");
   say("$ " + shown);
   const auto t0 = std::chrono::steady_clock::now();
-  const int rc = run_process(self_executable(), args, &g_child);
+  const int rc = run_process(self_executable(), args);
   seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return rc;
-}
-
-// Ctrl-C reaches the child (same process group) which stops safely; the demo just waits.
-void ignore_interrupts_while_children_run() {
-  struct sigaction sa {};
-  sa.sa_handler = SIG_IGN;
-  sigaction(SIGINT, &sa, nullptr);
-  sa.sa_handler = [](int) {
-    if (g_child > 0) kill(static_cast<pid_t>(g_child), SIGTERM);
-  };
-  sigaction(SIGTERM, &sa, nullptr);
 }
 
 // The simulator's truth as the plain numbers calib::score_calibration takes.
@@ -223,7 +210,7 @@ int run_demo(const DemoArgs& a) {
                   rig.plan.angles_deg().size(), rig.plan.exposures_s.size(), name));
   say("rig: " + rig_file.string() + ", results in " + dir.string());
 
-  ignore_interrupts_while_children_run();
+  pass_signals_to_children();  // Ctrl-C reaches the child (same process group), which stops safely
   const auto t_start = std::chrono::steady_clock::now();
   double t_cal = 0, t_check = 0, t_measure = 0, t_fit = 0, t_export = 0;
   const std::string R = rig_file.string();

@@ -20,6 +20,7 @@
 
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
+#include "paintlab/core/process.h"
 #include "paintlab/core/progress.h"
 #include "paintlab/core/rig.h"
 #include "rig_devices.h"
@@ -28,30 +29,6 @@ namespace fs = std::filesystem;
 
 namespace paintlab::app {
 namespace {
-
-std::atomic<bool> g_stop{false};
-extern "C" void on_stop_signal(int) { g_stop = true; }
-
-// Installs SIGINT/SIGTERM handlers that ask the runner to stop; restores the old ones.
-class StopSignals {
- public:
-  StopSignals() {
-    g_stop = false;
-    struct sigaction sa {};
-    sa.sa_handler = on_stop_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int_);
-    sigaction(SIGTERM, &sa, &old_term_);
-  }
-  ~StopSignals() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-  }
-
- private:
-  struct sigaction old_int_ {};
-  struct sigaction old_term_ {};
-};
 
 struct MeasureArgs {
   std::string rig;
@@ -150,7 +127,7 @@ int run_measure(const MeasureArgs& a) {
   say(fmt::format("measuring sample '{}' on rig '{}': {} positions x {} exposures -> {}", session->manifest().sample,
                   rig.name, session->position_count(), session->manifest().exposures_s.size(),
                   session->dir().string()));
-  acq::RunSummary s = runner.run(g_stop);
+  acq::RunSummary s = runner.run(StopSignals::requested());
   progress.finish();
   print_run_summary(s, *session);
   if (s.complete) return kExitOk;

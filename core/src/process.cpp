@@ -1,5 +1,6 @@
 #include "paintlab/core/process.h"
 
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 
@@ -18,8 +19,21 @@ std::filesystem::path self_executable() {
   return p;
 }
 
-int run_process(const std::filesystem::path& exe, const std::vector<std::string>& args,
-                volatile std::sig_atomic_t* running_pid) {
+namespace {
+
+volatile std::sig_atomic_t g_running_child = 0;
+std::atomic<bool> g_stop_requested{false};
+
+extern "C" void pass_term_to_child(int) {
+  if (g_running_child > 0) kill(static_cast<pid_t>(g_running_child), SIGTERM);
+}
+
+extern "C" void request_stop(int) { g_stop_requested = true; }
+
+}  // namespace
+
+int run_process(const std::filesystem::path& exe, const std::vector<std::string>& args) {
+  volatile std::sig_atomic_t* running_pid = &g_running_child;
   const std::string file = exe.string();
   std::vector<char*> argv{const_cast<char*>(file.c_str())};
   for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
@@ -40,5 +54,30 @@ int run_process(const std::filesystem::path& exe, const std::vector<std::string>
   if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
   return WEXITSTATUS(status);
 }
+
+void pass_signals_to_children() {
+  struct sigaction sa {};
+  sigemptyset(&sa.sa_mask);
+  sa.sa_handler = SIG_IGN;
+  sigaction(SIGINT, &sa, nullptr);
+  sa.sa_handler = pass_term_to_child;
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+StopSignals::StopSignals() {
+  g_stop_requested = false;
+  struct sigaction sa {};
+  sa.sa_handler = request_stop;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, &old_int_);
+  sigaction(SIGTERM, &sa, &old_term_);
+}
+
+StopSignals::~StopSignals() {
+  sigaction(SIGINT, &old_int_, nullptr);
+  sigaction(SIGTERM, &old_term_, nullptr);
+}
+
+std::atomic<bool>& StopSignals::requested() { return g_stop_requested; }
 
 }  // namespace paintlab

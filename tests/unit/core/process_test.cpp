@@ -5,7 +5,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <chrono>
 #include <fstream>
+#include <thread>
 
 #include "paintlab/core/error.h"
 #include "test_util.h"
@@ -22,16 +26,42 @@ TEST(Process, AChildEndedByASignalGives128PlusTheSignal) {
   EXPECT_EQ(run_process("/bin/sh", {"-c", "kill -TERM $$"}), 128 + SIGTERM);
 }
 
-TEST(Process, TheRunningPidIsSetWhileTheChildRunsAndClearedAfter) {
-  test::TempDir tmp;
-  volatile std::sig_atomic_t pid = -1;
-  const std::string file = (tmp / "pid").string();
-  ASSERT_EQ(run_process("/bin/sh", {"-c", "echo $$ > '" + file + "'"}, &pid), 0);
-  EXPECT_EQ(pid, 0);
-  std::ifstream in(file);
-  long child = 0;
-  in >> child;
-  EXPECT_GT(child, 0);
+TEST(Process, ATerminationIsPassedOnToTheRunningChild) {
+  struct sigaction before {};
+  sigaction(SIGTERM, nullptr, &before);
+  pass_signals_to_children();
+  std::thread terminator([] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    kill(getpid(), SIGTERM);  // to this process: its handler passes it to the child
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  const int rc = run_process("/bin/sleep", {"20"});
+  terminator.join();
+  EXPECT_EQ(rc, 128 + SIGTERM);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
+  kill(getpid(), SIGTERM);  // no child: ignored, this test goes on
+  struct sigaction sa {};
+  sigaction(SIGINT, nullptr, &sa);
+  EXPECT_EQ(sa.sa_handler, SIG_IGN);
+  sigaction(SIGTERM, &before, nullptr);
+  sa.sa_handler = SIG_DFL;
+  sigaction(SIGINT, &sa, nullptr);
+}
+
+TEST(Process, StopSignalsSetTheFlagWhileAliveAndRestoreTheHandlersAfter) {
+  struct sigaction before {};
+  sigaction(SIGINT, nullptr, &before);
+  {
+    StopSignals stop;
+    EXPECT_FALSE(StopSignals::requested());
+    raise(SIGINT);
+    EXPECT_TRUE(StopSignals::requested());
+  }
+  struct sigaction after {};
+  sigaction(SIGINT, nullptr, &after);
+  EXPECT_EQ(after.sa_handler, before.sa_handler);
+  StopSignals again;  // a new one starts unrequested
+  EXPECT_FALSE(StopSignals::requested());
 }
 
 TEST(Process, AnExecutableThatCannotStartIsNamed) {

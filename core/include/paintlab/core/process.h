@@ -1,6 +1,9 @@
 #pragma once
 // Child processes: `paintlab demo` runs each paintlab command as its own process, as a
 // technician types them.
+#include <signal.h>
+
+#include <atomic>
 #include <csignal>
 #include <filesystem>
 #include <string>
@@ -13,9 +16,28 @@ std::filesystem::path self_executable();
 
 // Runs `exe ARGS...` with this process's environment, standard streams and process group
 // (Ctrl-C reaches both), waits for it and returns its exit code, or 128 + the signal that
-// ended it. While it runs, `*running_pid` (when given) holds its pid, for a signal handler
-// to forward a termination to; 0 afterwards. IoError naming `exe` when it cannot start.
-int run_process(const std::filesystem::path& exe, const std::vector<std::string>& args,
-                volatile std::sig_atomic_t* running_pid = nullptr);
+// ended it. IoError naming `exe` when it cannot start.
+int run_process(const std::filesystem::path& exe, const std::vector<std::string>& args);
+
+// For a program that runs steps as children (paintlab demo): from now on SIGINT is ignored
+// here (the child, in the same process group, gets Ctrl-C and stops safely itself) and
+// SIGTERM is passed on to the child run_process is waiting for (ignored between children).
+void pass_signals_to_children();
+
+// While alive, SIGINT and SIGTERM set requested() instead of ending the process (a
+// measurement stops at its next safe point); the handlers before it come back after.
+class StopSignals {
+ public:
+  StopSignals();
+  ~StopSignals();
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+  // The flag the handlers set (false when a StopSignals is made).
+  static std::atomic<bool>& requested();
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
 
 }  // namespace paintlab
