@@ -1,5 +1,8 @@
 #include "paintlab/acquisition/hdr_merge.h"
 
+#include "paintlab/calibration/record.h"
+#include "paintlab/core/hash.h"
+
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
@@ -261,6 +264,29 @@ struct HdrMerger::Impl {
 
 HdrCalibration HdrCalibration::of(const calib::RigCalibration& rig) {
   return {rig.response(), rig.dark(), rig.flat()};
+}
+
+void HdrFiles::complete_from(const std::filesystem::path& calibration_dir) {
+  const auto fill = [&](std::filesystem::path& file, const char* name) {
+    if (file.empty() && std::filesystem::exists(calibration_dir / name)) file = calibration_dir / name;
+  };
+  fill(response, calib::kResponseFile);
+  fill(dark, calib::kDarkFile);
+  fill(flat, calib::kFlatFile);
+}
+
+HdrCalibration HdrFiles::load() const {
+  HdrCalibration cal;
+  if (!response.empty()) cal.response = calib::ResponseCurve::load(response);
+  if (!dark.empty()) cal.dark = calib::DarkFrame::load(dark);
+  if (!flat.empty()) cal.flat = calib::FlatField::load(flat);
+  return cal;
+}
+
+void HdrFiles::stamp(ExrImage& image) const {
+  if (!response.empty()) image.attributes["paintlab.response_sha256"] = sha256_file(response);
+  if (!dark.empty()) image.attributes["paintlab.dark_sha256"] = sha256_file(dark);
+  if (!flat.empty()) image.attributes["paintlab.flat_sha256"] = sha256_file(flat);
 }
 
 HdrMerger::HdrMerger(const HdrCalibration& calibration, const HdrOptions& options, int width, int height,

@@ -61,18 +61,12 @@ void register_hdr_commands(CLI::App& app) {
     if ((a->read_noise >= 0.0) != (a->gain >= 0.0)) throw UsageError("give --read-noise and --gain together");
     if (a->read_noise >= 0.0) opt.noise = {a->read_noise, a->gain, "command line"};
     opt.check();
-    acq::HdrCalibration cal;
     // The rig's calibration files, each replaced by the one given explicitly.
-    std::string response = a->response, dark = a->dark, flat = a->flat;
+    acq::HdrFiles files{a->response, a->dark, a->flat};
     if (!a->rig.empty()) {
       const RigConfig rig = load_rig(a->rig);
-      const auto rig_file = [&](std::string* file, const char* name) {
-        if (file->empty() && fs::exists(rig.calibration_dir / name)) *file = (rig.calibration_dir / name).string();
-      };
-      rig_file(&response, calib::kResponseFile);
-      rig_file(&dark, calib::kDarkFile);
-      rig_file(&flat, calib::kFlatFile);
-      if (response.empty() && dark.empty() && flat.empty())
+      files.complete_from(rig.calibration_dir);
+      if (files.empty())
         spdlog::warn("{} has no response.json, dark.json or flat.json: merging as a linear camera",
                      rig.calibration_dir.string());
     }
@@ -83,15 +77,13 @@ void register_hdr_commands(CLI::App& app) {
           .inputs("--images", expand_input_files(a->input.images, "--images", kRawImageExtensions))
           .input("--exposure-file", a->input.exposure_file)
           .input("--rig", a->rig)
-          .input(a->response.empty() ? "--rig's response" : "--response", response)
-          .input(a->dark.empty() ? "--rig's dark frame" : "--dark", dark)
-          .input(a->flat.empty() ? "--rig's flat field" : "--flat", flat)
+          .input(a->response.empty() ? "--rig's response" : "--response", files.response)
+          .input(a->dark.empty() ? "--rig's dark frame" : "--dark", files.dark)
+          .input(a->flat.empty() ? "--rig's flat field" : "--flat", files.flat)
           .output(out_spec)
           .check();
     }
-    if (!response.empty()) cal.response = calib::ResponseCurve::load(response);
-    if (!dark.empty()) cal.dark = calib::DarkFrame::load(dark);
-    if (!flat.empty()) cal.flat = calib::FlatField::load(flat);
+    const acq::HdrCalibration cal = files.load();
     const calib::ExposureStack stack = load_stack_input(a->input);
     const auto frames = stack.frames();
     const auto& first = stack.images.front();
@@ -99,9 +91,7 @@ void register_hdr_commands(CLI::App& app) {
     acq::HdrMerger merger(cal, opt, first.width(), first.height(), first.channels(), stack.bit_depth);
     acq::HdrResult r = merger.merge(frames);
     const double merge_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!response.empty()) r.image.attributes["paintlab.response_sha256"] = sha256_file(response);
-    if (!dark.empty()) r.image.attributes["paintlab.dark_sha256"] = sha256_file(dark);
-    if (!flat.empty()) r.image.attributes["paintlab.flat_sha256"] = sha256_file(flat);
+    files.stamp(r.image);
     if (out.has_parent_path()) fs::create_directories(out.parent_path());
     write_exr(out, r.image, a->half);
     const auto& s = r.stats;

@@ -9,11 +9,14 @@
 #include <random>
 
 #include "paintlab/acquisition/hdr_merge.h"
+#include "paintlab/calibration/record.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/hash.h"
 #include "test_util.h"
 
 using namespace paintlab;
 using ::testing::HasSubstr;
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -495,4 +498,37 @@ TEST(HdrMerge, RejectsFramesAndCalibrationsThatDoNotFit) {
   EXPECT_THROW(acq::merge_hdr(bad_t, 16, cal), DataError);
   EXPECT_THROW(acq::merge_hdr(std::vector<calib::StackFrame>{}, 16, cal), DataError);
   EXPECT_THROW(acq::merge_hdr(mixed, 12, cal), DataError);  // response made from 16-bit data
+}
+
+TEST(HdrFiles, EachGivenFileStandsAndTheRigsFillTheRestWithTheirChecksumsRecorded) {
+  test::TempDir tmp;
+  fs::create_directories(tmp / "calib");
+  calib::ResponseCurve::identity(12, 1, {}).save(tmp / "calib" / calib::kResponseFile);
+  calib::DarkFrame dark;
+  dark.bit_depth = 12;
+  dark.bias_dn = ImageF(4, 3, 1, 64.0f);
+  dark.rate_dn_per_s = ImageF(4, 3, 1, 0.0f);
+  dark.hot = ImageU8(4, 3, 1, 0);
+  fs::create_directories(tmp / "mine");
+  dark.save(tmp / "mine" / "dark.json");
+  dark.bias_dn = ImageF(4, 3, 1, 70.0f);
+  dark.save(tmp / "calib" / calib::kDarkFile);  // the rig's, not used: one is given
+
+  acq::HdrFiles files;
+  EXPECT_TRUE(files.empty());
+  files.dark = tmp / "mine" / "dark.json";
+  files.complete_from(tmp / "calib");
+  EXPECT_EQ(files.response, tmp / "calib" / calib::kResponseFile);
+  EXPECT_EQ(files.dark, tmp / "mine" / "dark.json");
+  EXPECT_TRUE(files.flat.empty());  // the rig has none
+  const acq::HdrCalibration cal = files.load();
+  ASSERT_TRUE(cal.response && cal.dark);
+  EXPECT_EQ(cal.response->bit_depth, 12);
+  EXPECT_FLOAT_EQ(cal.dark->bias_dn.at(0, 0), 64.0f);
+  EXPECT_FALSE(cal.flat);
+  ExrImage image;
+  files.stamp(image);
+  EXPECT_EQ(image.attributes.at("paintlab.response_sha256"), sha256_file(files.response));
+  EXPECT_EQ(image.attributes.at("paintlab.dark_sha256"), sha256_file(files.dark));
+  EXPECT_EQ(image.attributes.count("paintlab.flat_sha256"), 0u);
 }

@@ -16,6 +16,7 @@
 // shortest exposure -> g(saturation) / t_min (a lower bound), else the longest exposure's
 // g(u) / t_max (at or below the noise floor).
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <span>
@@ -40,6 +41,20 @@ struct HdrCalibration {
 
   // The response, dark and flat of a rig's calibration folder, those it holds.
   static HdrCalibration of(const calib::RigCalibration& rig);
+};
+
+// The calibration files a merge of images from files linearises with (paintlab hdr merge):
+// each one given, else the rig's.
+struct HdrFiles {
+  std::filesystem::path response, dark, flat;  // empty: none
+
+  // Fills each empty one with `calibration_dir`'s response.json, dark.json or flat.json where
+  // that exists.
+  void complete_from(const std::filesystem::path& calibration_dir);
+  bool empty() const { return response.empty() && dark.empty() && flat.empty(); }
+  HdrCalibration load() const;
+  // Records the files' SHA-256 in the image's header (paintlab.response_sha256, ...).
+  void stamp(ExrImage& image) const;
 };
 
 struct HdrOptions {
