@@ -133,8 +133,6 @@ acq::HdrCalibration load_radiometry(const RigConfig& rig) {
   return acq::HdrCalibration::of(calib::RigCalibration::load(rig));
 }
 
-std::shared_ptr<CalibrationRunners> make_calibration_runners() { return std::make_shared<CalibrationRunners>(); }
-
 void check_step_outputs(fit::OutputGuard guard, const std::string& rig_file, const std::vector<std::string>& steps,
                         const fs::path& out) {
   guard.input("--rig", rig_file);

@@ -57,19 +57,14 @@ Json device_serials(RigDevices& d, const RigConfig& rig);
 // of images (one subfolder per step) for `paintlab calibrate all --images DIR`.
 struct CalibrateContext {
   RigConfig rig;
+  bool has_rig = false;                             // false: files only (intrinsics, dark, response, flat)
+  std::vector<std::string> images;                  // --images as given (a step on its own)
+  std::filesystem::path out;                        // --out; empty: the rig's calibration folder
   CalibSession* session = nullptr;                 // capturing
   std::optional<std::filesystem::path> images_dir;  // or images from files
   double albedo = 0.0;                              // the reference's (scale)
   std::string k3;                                   // intrinsics: "fix", "free", or empty (decided from the data)
   acq::CalibrationRig capture;                      // the session's devices as a step captures through them
-};
-
-// What `paintlab calibrate all` runs for each step of the procedure
-// (calib::calibration_procedure()), with that command's defaults; filled by the command
-// groups that own the steps (register_calibrate_radiometric_commands: dark, response, flat;
-// register_calibrate_commands: intrinsics, sphere, light, scale).
-struct CalibrationRunners {
-  std::map<std::string, std::function<void(CalibrateContext&)>> by_step;
 };
 
 // The files the calibration steps `steps` write (each .json, and the .exr beside dark's and

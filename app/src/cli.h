@@ -51,11 +51,8 @@ void register_sim_serve_command(CLI::App& app);
 void register_devices_commands(CLI::App& app);
 void register_measure_commands(CLI::App& app);  // paintlab measure (cmd_measure.cpp)
 void register_fit_commands(CLI::App& app);      // paintlab fit, paintlab bin (cmd_fit.cpp)
-struct CalibrationRunners;  // the steps `paintlab calibrate all` runs (calibrate_support.h)
-std::shared_ptr<CalibrationRunners> make_calibration_runners();
-void register_calibrate_radiometric_commands(CLI::App& app, CalibrationRunners& runners);  // paintlab calibrate response|dark|flat
-void register_hdr_commands(CLI::App& app);  // paintlab hdr merge (cmd_hdr.cpp)
-void register_calibrate_commands(CLI::App& app, std::shared_ptr<CalibrationRunners> runners);  // paintlab calibrate intrinsics|sphere|light|scale|all (cmd_calibrate.cpp)
+void register_calibrate_commands(CLI::App& app);  // paintlab calibrate intrinsics|dark|response|flat|sphere|light|scale|all (cmd_calibrate.cpp)
+void register_hdr_commands(CLI::App& app);        // paintlab hdr merge (cmd_hdr.cpp)
 void register_check_commands(CLI::App& app);      // paintlab check (cmd_check.cpp)
 void register_export_commands(CLI::App& app);     // paintlab export, paintlab axf validate|show (cmd_export.cpp)
 void register_library_commands(CLI::App& app);    // paintlab library add|list|show|remove|export (cmd_library.cpp)

@@ -36,22 +36,9 @@ struct ExportArgs {
   CLI::Option* lobes_option = nullptr;
 };
 
-// The measured table or session a fit.json was fitted to (its "input" path): --merl reads it.
-fs::path fitted_input_of(const fs::path& file) {
-  if (file.extension() != ".json" || !fs::is_regular_file(file)) return {};
-  try {
-    const Json j = read_json_file(file);
-    if (j.is_object() && j.contains("input") && j["input"].is_object())
-      return fs::path(j["input"].value("path", std::string()));
-  } catch (const Error&) {
-    // export itself names what is wrong with the file
-  }
-  return {};
-}
-
 int run_export(const ExportArgs& a) {
   fit::OutputGuard guard;
-  for (const auto& in : a.inputs) guard.input("INPUT", in).input("what " + in + " was fitted to", fitted_input_of(in));
+  for (const auto& in : a.inputs) guard.input("INPUT", in).input("what " + in + " was fitted to", fit::fitted_input_of(in));
   guard.input("--calib", a.extract.calib);
   guard.output({"--axf", a.axf}).output({"--merl", a.merl}).output({"--fit-out", a.fit_out}).check();
   fit::ExportRequest r;

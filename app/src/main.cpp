@@ -45,10 +45,8 @@ int main(int argc, char** argv) {
   app::register_devices_commands(app);
   app::register_fit_commands(app);
   app::register_measure_commands(app);
-  auto calibration_runners = app::make_calibration_runners();
-  app::register_calibrate_radiometric_commands(app, *calibration_runners);
+  app::register_calibrate_commands(app);
   app::register_hdr_commands(app);
-  app::register_calibrate_commands(app, calibration_runners);
   app::register_check_commands(app);
   app::register_export_commands(app);
   app::register_library_commands(app);

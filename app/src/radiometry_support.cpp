@@ -21,23 +21,7 @@ void add_stack_options(CLI::App* cmd, StackInput* in) {
 }
 
 calib::ExposureStack load_stack_input(const StackInput& in) {
-  const auto files = expand_input_files(in.images, "--images", kRawImageExtensions);
-  std::vector<double> times;
-  if (!in.exposures.empty() && !in.exposure_file.empty())
-    throw UsageError("give either --exposures or --exposure-file, not both");
-  if (!in.exposures.empty()) {
-    times = calib::parse_exposure_list(in.exposures, "--exposures");
-  } else if (!in.exposure_file.empty()) {
-    times = calib::read_exposure_file(in.exposure_file, files);
-  } else if (in.images.size() == 1 && fs::is_directory(in.images[0]) && fs::exists(fs::path(in.images[0]) / "exposures.txt")) {
-    times = calib::read_exposure_file(fs::path(in.images[0]) / "exposures.txt", files);
-  } else {
-    throw UsageError("give the exposure times: --exposures LIST or --exposure-file F");
-  }
-  if (times.size() != files.size())
-    throw UsageError(fmt::format("--exposures gives {} times for {} images: give one time per image, in the same order",
-                                 times.size(), files.size()));
-  return calib::load_exposure_stack(files, times, in.bit_depth);
+  return calib::load_stack_files(in.images, in.exposures, in.exposure_file, in.bit_depth);
 }
 
 }  // namespace paintlab::app

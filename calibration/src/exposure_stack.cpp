@@ -10,6 +10,7 @@
 
 #include "paintlab/core/error.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/core/input_files.h"
 
 namespace fs = std::filesystem;
 
@@ -197,6 +198,28 @@ std::vector<double> read_exposure_file(const fs::path& path, const std::vector<f
     out.push_back(hit->time_s);
   }
   return out;
+}
+
+ExposureStack load_stack_files(const std::vector<std::string>& images, const std::string& exposures,
+                               const std::filesystem::path& exposure_file, int bit_depth) {
+  namespace fs = std::filesystem;
+  const auto files = expand_input_files(images, "--images", kRawImageExtensions);
+  std::vector<double> times;
+  if (!exposures.empty() && !exposure_file.empty())
+    throw UsageError("give either --exposures or --exposure-file, not both");
+  if (!exposures.empty()) {
+    times = parse_exposure_list(exposures, "--exposures");
+  } else if (!exposure_file.empty()) {
+    times = read_exposure_file(exposure_file, files);
+  } else if (images.size() == 1 && fs::is_directory(images[0]) && fs::exists(fs::path(images[0]) / "exposures.txt")) {
+    times = read_exposure_file(fs::path(images[0]) / "exposures.txt", files);
+  } else {
+    throw UsageError("give the exposure times: --exposures LIST or --exposure-file F");
+  }
+  if (times.size() != files.size())
+    throw UsageError(fmt::format("--exposures gives {} times for {} images: give one time per image, in the same order",
+                                 times.size(), files.size()));
+  return load_exposure_stack(files, times, bit_depth);
 }
 
 }  // namespace paintlab::calib

@@ -292,4 +292,16 @@ std::string write_filled_merl(brdf::MerlTable table, const fs::path& out) {
       out.string(), r.measured_bins, r.filled_mirror, r.filled_pyramid, r.invalid_empty);
 }
 
+std::filesystem::path fitted_input_of(const std::filesystem::path& file) {
+  if (file.extension() != ".json" || !std::filesystem::is_regular_file(file)) return {};
+  try {
+    const Json j = read_json_file(file);
+    if (j.is_object() && j.contains("input") && j["input"].is_object())
+      return std::filesystem::path(j["input"].value("path", std::string()));
+  } catch (const Error&) {
+    // export itself names what is wrong with the file
+  }
+  return {};
+}
+
 }  // namespace paintlab::fit

@@ -361,3 +361,22 @@ TEST(ResponseOptions, TheNoDataColourIsOneValueOrThreeNamedByTheFlag) {
     }
   }
 }
+
+TEST(ExposureStack, TheTimesComeFromTheListTheFileOrTheFoldersExposuresTxt) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir / "stack");
+  write_png(dir / "stack" / "a.png", Image<std::uint16_t>(8, 6, 1, 100), 16);
+  write_png(dir / "stack" / "b.png", Image<std::uint16_t>(8, 6, 1, 200), 16);
+  const std::string folder = (dir / "stack").string();
+  EXPECT_EQ(load_stack_files({folder}, "0.1,1/5", "").exposures_s, (std::vector<double>{0.1, 0.2}));
+  test::write_text(dir / "times.txt", "a.png 0.3\nb.png 0.6\n");
+  EXPECT_EQ(load_stack_files({folder}, "", dir / "times.txt").exposures_s, (std::vector<double>{0.3, 0.6}));
+  EXPECT_THAT(error_of<UsageError>([&] { load_stack_files({folder}, "", ""); }),
+              HasSubstr("give the exposure times: --exposures LIST or --exposure-file F"));
+  test::write_text(dir / "stack" / "exposures.txt", "a.png 0.01\nb.png 0.02\n");  // the folder's own
+  EXPECT_EQ(load_stack_files({folder}, "", "").exposures_s, (std::vector<double>{0.01, 0.02}));
+  EXPECT_THAT(error_of<UsageError>([&] { load_stack_files({folder}, "0.1", dir / "times.txt"); }),
+              HasSubstr("not both"));
+  EXPECT_THAT(error_of<UsageError>([&] { load_stack_files({folder}, "0.1", ""); }),
+              HasSubstr("--exposures gives 1 times for 2 images"));
+}

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "paintlab/core/error.h"
+#include "paintlab/fitting/export.h"
 #include "paintlab/fitting/paint_library.h"
 #include "test_util.h"
 
@@ -68,4 +69,16 @@ TEST(OutputGuard, AnOutputInsideASessionOrLibraryOrOverAnInputIsRefusedByItsFlag
   fit::OutputGuard empty;
   empty.input("--calib", "").output({"--hdr", ""});
   EXPECT_EQ(guard_error(empty), "no error");
+}
+
+TEST(OutputGuard, WhatAFitWasFittedToIsAnInputOfItsExport) {
+  test::TempDir tmp;
+  test::write_text(tmp / "fit.json", R"({"input": {"path": "/lab/s1/table.merl", "kind": "merl"}})");
+  test::write_text(tmp / "old.json", R"({"parameters": {}})");
+  test::write_text(tmp / "bad.json", "{not json");
+  EXPECT_EQ(fit::fitted_input_of(tmp / "fit.json"), fs::path("/lab/s1/table.merl"));
+  EXPECT_EQ(fit::fitted_input_of(tmp / "old.json"), fs::path());
+  EXPECT_EQ(fit::fitted_input_of(tmp / "bad.json"), fs::path());      // export names the problem
+  EXPECT_EQ(fit::fitted_input_of(tmp / "paint.axf.h5"), fs::path());  // not a fit.json
+  EXPECT_EQ(fit::fitted_input_of(tmp / "missing.json"), fs::path());
 }

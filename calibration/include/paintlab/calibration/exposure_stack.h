@@ -41,6 +41,13 @@ struct ExposureStack {
 ExposureStack load_exposure_stack(const std::vector<std::filesystem::path>& files,
                                   const std::vector<double>& exposures_s, int bit_depth = 0);
 
+// The stack of `images` (files or folders of raw images, as the user gave them under
+// --images) with their exposure times from `exposures` (a list, parse_exposure_list), or
+// from `exposure_file` (read_exposure_file), or, for a single folder, from its
+// exposures.txt. UsageError when both or neither are given or the counts differ.
+ExposureStack load_stack_files(const std::vector<std::string>& images, const std::string& exposures,
+                               const std::filesystem::path& exposure_file, int bit_depth = 0);
+
 // Parses "0.001,0.004,1/60" (seconds; a/b fractions allowed). Throws UsageError naming
 // the entry (1-based) and `option` when an entry is not a finite number > 0.
 std::vector<double> parse_exposure_list(const std::string& list, const std::string& option = "--exposures");

@@ -25,6 +25,10 @@
 
 namespace paintlab::fit {
 
+// The table or session a fit.json was fitted to (its "input" path, which export --merl
+// reads); empty for anything else, or a file that cannot be read (export names its problem).
+std::filesystem::path fitted_input_of(const std::filesystem::path& file);
+
 // `paintlab export INPUT... [--axf FILE] [--merl FILE] ...`.
 struct ExportRequest {
   // One session folder (binned once here, fitted when `axf` is given), or one or two paint
