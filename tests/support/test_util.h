@@ -35,6 +35,18 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+// The message of the E that `f` throws, "(no error)" when it throws nothing (an exception of
+// another type passes through): EXPECT_THAT(error_message<UsageError>([&] { ... }), HasSubstr(...)).
+template <class E, class F>
+std::string error_message(F&& f) {
+  try {
+    f();
+  } catch (const E& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
 // Writes text to a file (creating folders).
 void write_text(const std::filesystem::path& path, const std::string& text);
 

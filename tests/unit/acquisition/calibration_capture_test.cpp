@@ -84,12 +84,8 @@ TEST(CalibrationCapture, AResponseBracketTheCameraCannotTakeSaysWhyAndLeavesTheL
   CapRig r(tmp / "captures");
   r.scene(1e6);
   r.camera.range = {0.09, 0.1};  // far too bright for this camera's exposures
-  try {
-    acq::capture_response_stack(r.rig, 90.0, kCapBlackDn, 12, tmp / "response");
-    FAIL() << "no error";
-  } catch (const CalibrationError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("leaves no bracket"));
-  }
+  EXPECT_THAT(test::error_message<CalibrationError>([&] { acq::capture_response_stack(r.rig, 90.0, kCapBlackDn, 12, tmp / "response"); }),
+              HasSubstr("leaves no bracket"));
   EXPECT_FALSE(r.light.state);
   EXPECT_FALSE(fs::exists(tmp / "response" / "exposures.txt"));
 }
@@ -146,12 +142,8 @@ TEST(CalibrationCapture, StepShotsTurnTheTableAndBecomeHighlightAndReferenceImag
   acq::Shot unnamed = shots[0];
   unnamed.table_angle_deg.reset();
   unnamed.file = "light/IMG_0001.png";
-  try {
-    acq::highlight_image(unnamed, "calibrate light");
-    FAIL() << "no error";
-  } catch (const UsageError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("calibrate light: light/IMG_0001.png: the table angle is not in the file name"));
-  }
+  EXPECT_THAT(test::error_message<UsageError>([&] { acq::highlight_image(unnamed, "calibrate light"); }),
+              HasSubstr("calibrate light: light/IMG_0001.png: the table angle is not in the file name"));
   acq::Shot no_exposure = shots[1];
   no_exposure.per_second = false;
   EXPECT_THROW(acq::reference_image(no_exposure, "calibrate scale"), UsageError);

@@ -104,22 +104,14 @@ TEST(CalibrationSteps, AStepMissingItsCalibrationFilesOrImagesRefusesBeforeCaptu
   acq::StepImages in;
   in.capture = &r.rig;
   const calib::RigCalibration cal = calib::RigCalibration::load(tmp / "calib");
-  try {
-    acq::light_step(in, cal, step_rig(), {0.0});
-    FAIL() << "no error";
-  } catch (const CalibrationError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("sphere.json"));
-  }
+  EXPECT_THAT(test::error_message<CalibrationError>([&] { acq::light_step(in, cal, step_rig(), {0.0}); }),
+              HasSubstr("sphere.json"));
   EXPECT_THROW(acq::scale_step(in, cal, step_rig(), {0.0}, 0.99), CalibrationError);  // sphere.json, light.json
   EXPECT_EQ(r.camera.captures, 0);
   EXPECT_TRUE(r.stage.calls.empty());
   // Neither files nor a rig to capture with.
-  try {
-    acq::sphere_step(acq::StepImages{}, cal, step_rig(), {90.0});
-    FAIL() << "no error";
-  } catch (const UsageError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("calibrate sphere: give --images or --capture"));
-  }
+  EXPECT_THAT(test::error_message<UsageError>([&] { acq::sphere_step(acq::StepImages{}, cal, step_rig(), {90.0}); }),
+              HasSubstr("calibrate sphere: give --images or --capture"));
 }
 
 TEST(CalibrationSteps, TheDarkStepCapturesCappedFramesAndRecordsThemWithWhatElseItRead) {
@@ -185,21 +177,13 @@ TEST(CalibrationSteps, TheIntrinsicsStepAsksTheStageForEachViewOrReadsTheFiles) 
   acq::StepImages in;
   in.capture = &r.rig;
   const calib::BoardSpec board = calib::BoardSpec::parse("9x6", 20.0);
-  try {
-    acq::intrinsics_step(in, board, {}, 2);
-    FAIL() << "no error";
-  } catch (const UsageError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("--views 2: must be >= 3"));
-  }
+  EXPECT_THAT(test::error_message<UsageError>([&] { acq::intrinsics_step(in, board, {}, 2); }),
+              HasSubstr("--views 2: must be >= 3"));
   EXPECT_TRUE(r.stage.calls.empty());
   // Three blank views are captured, each shown by the stage; none can hold a board (8 x 6
   // pixels), which the error says.
-  try {
-    acq::intrinsics_step(in, board, {}, 3);
-    FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("too small to hold a 9x6 chessboard"));
-  }
+  EXPECT_THAT(test::error_message<Error>([&] { acq::intrinsics_step(in, board, {}, 3); }),
+              HasSubstr("too small to hold a 9x6 chessboard"));
   EXPECT_THAT(r.stage.calls, ElementsAre("board 0/3", "board 1/3", "board 2/3", "mount the sample sphere"));
   // From files: the captured views read back, nothing captured again.
   acq::StepImages files;

@@ -232,12 +232,8 @@ TEST(ShotCapture, FailuresLeaveTheLedOffAndAnAngleWithoutATableIsRefused) {
   EXPECT_TRUE(shots.captured().empty());
 
   acq::ShotCapture no_table(rig.devices(false), tmp / "captures", 0.0);
-  try {
-    no_table.capture({"sphere", "s", 20.0, true, 0.6, 0.999, std::nullopt}, lin);
-    FAIL() << "an angle without a turntable was accepted";
-  } catch (const UsageError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("no turntable"));
-  }
+  EXPECT_THAT(test::error_message<UsageError>([&] { no_table.capture({"sphere", "s", 20.0, true, 0.6, 0.999, std::nullopt}, lin); }),
+              HasSubstr("no turntable"));
 }
 
 TEST(ShotNames, AnglesAndExposuresFromFileNames) {

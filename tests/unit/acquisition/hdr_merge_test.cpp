@@ -481,19 +481,11 @@ TEST(HdrMerge, RejectsFramesAndCalibrationsThatDoNotFit) {
   cal.response = linear_response(cam);
   Image<std::uint16_t> a(8, 8, 1, 1000), b(9, 8, 1, 1000), rgb(8, 8, 3, 1000);
   std::vector<calib::StackFrame> mixed{{&a, 0.01}, {&b, 0.02}};
-  try {
-    acq::merge_hdr(mixed, 16, cal);
-    FAIL() << "no error";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("frame 2 is 9x8x1"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::merge_hdr(mixed, 16, cal); }),
+              HasSubstr("frame 2 is 9x8x1"));
   std::vector<calib::StackFrame> colour{{&rgb, 0.01}};
-  try {
-    acq::merge_hdr(colour, 16, cal);
-    FAIL() << "no error";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("the response has 1 channel(s), the frames 3"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::merge_hdr(colour, 16, cal); }),
+              HasSubstr("the response has 1 channel(s), the frames 3"));
   std::vector<calib::StackFrame> bad_t{{&a, 0.0}};
   EXPECT_THROW(acq::merge_hdr(bad_t, 16, cal), DataError);
   EXPECT_THROW(acq::merge_hdr(std::vector<calib::StackFrame>{}, 16, cal), DataError);

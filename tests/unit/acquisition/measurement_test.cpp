@@ -41,26 +41,18 @@ TEST(Measurement, CameraPreparationAppliesTheGainAndRefusesExposuresOutsideTheRa
   EXPECT_DOUBLE_EQ(c.range.max_s, 1.0);
 
   camera.range = {1e-3, 0.1};  // the plan's 0.5 ms and 200 ms are outside
-  try {
-    acq::prepare_camera(camera, rig);
-    FAIL() << "an exposure outside the camera's range was accepted";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("exposure 0.5 ms of the plan is outside the camera's range [1, 100] ms"));
-    EXPECT_THAT(e.what(), HasSubstr("camera test"));
-    EXPECT_THAT(e.what(), HasSubstr("nothing was written"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::prepare_camera(camera, rig); }),
+              ::testing::AllOf(HasSubstr("exposure 0.5 ms of the plan is outside the camera's range [1, 100] ms"),
+                               HasSubstr("camera test"),
+                               HasSubstr("nothing was written")));
 }
 
 TEST(Measurement, MissingCalibrationNamesTheStepAndUncalibratedRecordsWhatIsThere) {
   test::TempDir tmp;
   const RigConfig rig = write_rig(tmp);
-  try {
-    acq::prepare_measurement(rig, false, false);
-    FAIL() << "a measurement without response.json was set up";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("response.json is missing: run `paintlab calibrate response --rig"));
-    EXPECT_THAT(e.what(), HasSubstr("--uncalibrated"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::prepare_measurement(rig, false, false); }),
+              ::testing::AllOf(HasSubstr("response.json is missing: run `paintlab calibrate response --rig"),
+                               HasSubstr("--uncalibrated")));
   fs::create_directories(rig.calibration_dir);
   test::write_text(rig.calibration_dir / calib::kCameraFile, "{}");
   const acq::MeasureSetup s = acq::prepare_measurement(rig, true, false);
@@ -119,18 +111,10 @@ TEST(Measurement, SessionOptionsRoundTripAndAMistypedKeyIsRefused) {
   // Sessions written before a key existed read it as its default.
   EXPECT_FALSE(acq::SessionOptions::from_json(Json::object(), "s/session.json").keep_raw);
   EXPECT_TRUE(acq::SessionOptions::from_json(Json::object(), "s/session.json").sim_paint.is_null());
-  try {
-    acq::SessionOptions::from_json(Json{{"keep_raws", true}}, "s/session.json");
-    FAIL() << "a mistyped key was read";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("s/session.json: options: unknown key 'keep_raws'"));
-  }
-  try {
-    acq::SessionOptions::from_json(Json{{"adaptive", "yes"}}, "s/session.json");
-    FAIL() << "a string was read as a flag";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("adaptive"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::SessionOptions::from_json(Json{{"keep_raws", true}}, "s/session.json"); }),
+              HasSubstr("s/session.json: options: unknown key 'keep_raws'"));
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::SessionOptions::from_json(Json{{"adaptive", "yes"}}, "s/session.json"); }),
+              HasSubstr("adaptive"));
   EXPECT_THROW(acq::SessionOptions::from_json(Json{{"sim_paint", 3}}, "s/session.json"), DataError);
 }
 

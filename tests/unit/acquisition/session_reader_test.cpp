@@ -60,31 +60,19 @@ TEST(SessionReader, CompleteSessionPassesAndAnIncompleteOneNamesWhatIsMissingAnd
   EXPECT_NO_THROW(acq::require_complete_session(done));
 
   const acq::SessionDir part = make_session(tmp / "part", 3, 1);
-  try {
-    acq::require_complete_session(part);
-    FAIL() << "an incomplete session passed";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("2 of 3 light positions are missing (index 1, 2)"));
-    EXPECT_THAT(e.what(), HasSubstr("paintlab measure --resume " + (tmp / "part").string()));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::require_complete_session(part); }),
+              ::testing::AllOf(HasSubstr("2 of 3 light positions are missing (index 1, 2)"),
+                               HasSubstr("paintlab measure --resume " + (tmp / "part").string())));
 
   // A finished file changed after it was journalled is not finished any more.
   test::write_text(done.hdr_path(1), "changed");
-  try {
-    acq::require_complete_session(done);
-    FAIL() << "a position whose file fails its checksum passed";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("1 of 3 light positions are missing (index 1)"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::require_complete_session(done); }),
+              HasSubstr("1 of 3 light positions are missing (index 1)"));
 
   // Long lists are cut after 8 indices.
   const acq::SessionDir empty = make_session(tmp / "none", 12, 0);
-  try {
-    acq::require_complete_session(empty);
-    FAIL() << "an empty session passed";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("12 of 12 light positions are missing (index 0, 1, 2, 3, 4, 5, 6, 7, ...)"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::require_complete_session(empty); }),
+              HasSubstr("12 of 12 light positions are missing (index 0, 1, 2, 3, 4, 5, 6, 7, ...)"));
 }
 
 TEST(SessionReader, ChecksumCoversManifestAndJournalInThatOrder) {
@@ -128,25 +116,11 @@ TEST(SessionReader, CalibrationFromTheGivenFolderOrTheSessionsRigAndClearErrorsO
 
   // A calibration file that does not parse is an error naming it, not an empty calibration.
   write_json_file(tmp / "rig" / "calib" / calib::kScaleFile, Json{{"note", "not a scale"}});
-  try {
-    acq::session_calibration(s, std::nullopt);
-    FAIL() << "a damaged scale.json was accepted";
-  } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("scale.json"));
-  }
-  try {
-    acq::session_calibration(s, tmp / "nowhere");
-    FAIL() << "a missing calibration folder was accepted";
-  } catch (const IoError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("nowhere"));
-    EXPECT_THAT(e.what(), HasSubstr("no such calibration folder"));
-  }
+  EXPECT_THAT(test::error_message<Error>([&] { acq::session_calibration(s, std::nullopt); }),
+              HasSubstr("scale.json"));
+  EXPECT_THAT(test::error_message<IoError>([&] { acq::session_calibration(s, tmp / "nowhere"); }),
+              ::testing::AllOf(HasSubstr("nowhere"), HasSubstr("no such calibration folder")));
   const acq::SessionDir orphan = make_session(tmp / "orphan", 1, 1, (tmp / "gone.toml").string());
-  try {
-    acq::session_calibration(orphan, std::nullopt);
-    FAIL() << "a session whose rig file is gone was accepted";
-  } catch (const IoError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("gone.toml"));
-    EXPECT_THAT(e.what(), HasSubstr("--calib DIR"));
-  }
+  EXPECT_THAT(test::error_message<IoError>([&] { acq::session_calibration(orphan, std::nullopt); }),
+              ::testing::AllOf(HasSubstr("gone.toml"), HasSubstr("--calib DIR")));
 }

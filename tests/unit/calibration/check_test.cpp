@@ -271,12 +271,8 @@ TEST_F(CheckSim, MissingFileFailsWithTheCommandToRun) {
   rig.calibration_dir = dir.path();
   RigCalibration cal = RigCalibration::load(dir.path());
   expect_fails(run_checks(rig, cal), "light.file", "paintlab calibrate light");
-  try {
-    cal.require({kCameraFile, kLightFile});
-    FAIL() << "expected a CalibrationError";
-  } catch (const CalibrationError& e) {
-    EXPECT_THAT(e.what(), ::testing::HasSubstr("light.json: run `paintlab calibrate light"));
-  }
+  EXPECT_THAT(test::error_message<CalibrationError>([&] { cal.require({kCameraFile, kLightFile}); }),
+              ::testing::HasSubstr("light.json: run `paintlab calibrate light"));
 }
 
 TEST_F(CheckSim, BundleGivesRaysSpherePointsAndBrdf) {

@@ -48,13 +48,9 @@ TEST(Procedure, StandardFilesAndTheirStepsFollowTheTable) {
   EXPECT_EQ(calib::procedure_step("light").angles, "-150:150:10");
   EXPECT_TRUE(calib::procedure_step("light").led);
   EXPECT_FALSE(calib::procedure_step("dark").led);
-  try {
-    calib::procedure_step("focus");
-    FAIL() << "an unknown step was found";
-  } catch (const UsageError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("no calibration step 'focus'"));
-    EXPECT_THAT(e.what(), HasSubstr("intrinsics, dark, response, flat, sphere, light, scale"));
-  }
+  EXPECT_THAT(test::error_message<UsageError>([&] { calib::procedure_step("focus"); }),
+              ::testing::AllOf(HasSubstr("no calibration step 'focus'"),
+                               HasSubstr("intrinsics, dark, response, flat, sphere, light, scale")));
 }
 
 TEST(Procedure, AnglesAreAListOrARangeWithItsEndIncluded) {
@@ -89,14 +85,10 @@ TEST(Procedure, AnglesAreAListOrARangeWithItsEndIncluded) {
 
 TEST(Procedure, AStepWhoseInputsAreMissingNamesEachFileAndTheCommandThatMakesIt) {
   test::TempDir tmp;
-  try {
-    calib::require_step_inputs(tmp.path(), "light", "/lab/rig.toml");
-    FAIL() << "no error";
-  } catch (const CalibrationError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("calibrate light needs"));
-    EXPECT_THAT(e.what(), HasSubstr("camera.json: run `paintlab calibrate intrinsics --rig /lab/rig.toml` first"));
-    EXPECT_THAT(e.what(), HasSubstr("sphere.json: run `paintlab calibrate sphere --rig /lab/rig.toml` first"));
-  }
+  EXPECT_THAT(test::error_message<CalibrationError>([&] { calib::require_step_inputs(tmp.path(), "light", "/lab/rig.toml"); }),
+              ::testing::AllOf(HasSubstr("calibrate light needs"),
+                               HasSubstr("camera.json: run `paintlab calibrate intrinsics --rig /lab/rig.toml` first"),
+                               HasSubstr("sphere.json: run `paintlab calibrate sphere --rig /lab/rig.toml` first")));
   test::write_text(tmp / calib::kCameraFile, "{}");
   test::write_text(tmp / calib::kSphereFile, "{}");
   EXPECT_NO_THROW(calib::require_step_inputs(tmp.path(), "light", "/lab/rig.toml"));

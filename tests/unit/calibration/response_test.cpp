@@ -20,16 +20,6 @@ using ::testing::HasSubstr;
 
 namespace {
 
-template <class E, class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
 struct GammaStack {
   std::vector<Image<std::uint16_t>> images;
   std::vector<double> exposures_s;
@@ -96,11 +86,11 @@ TEST(ExposureList, ParsesNumbersAndFractions) {
 }
 
 TEST(ExposureList, NamesTheBadEntry) {
-  EXPECT_THAT(error_of<UsageError>([] { parse_exposure_list("0.1,abc,0.3"); }), HasSubstr("entry 2 'abc'"));
-  EXPECT_THAT(error_of<UsageError>([] { parse_exposure_list("0.1,-0.2"); }), HasSubstr("entry 2"));
-  EXPECT_THAT(error_of<UsageError>([] { parse_exposure_list("0.1,,0.3"); }), HasSubstr("entry 2"));
-  EXPECT_THAT(error_of<UsageError>([] { parse_exposure_list("1/0"); }), HasSubstr("entry 1"));
-  EXPECT_THAT(error_of<UsageError>([] { parse_exposure_list("0.1,0"); }), HasSubstr("entry 2 '0'"));
+  EXPECT_THAT(test::error_message<UsageError>([] { parse_exposure_list("0.1,abc,0.3"); }), HasSubstr("entry 2 'abc'"));
+  EXPECT_THAT(test::error_message<UsageError>([] { parse_exposure_list("0.1,-0.2"); }), HasSubstr("entry 2"));
+  EXPECT_THAT(test::error_message<UsageError>([] { parse_exposure_list("0.1,,0.3"); }), HasSubstr("entry 2"));
+  EXPECT_THAT(test::error_message<UsageError>([] { parse_exposure_list("1/0"); }), HasSubstr("entry 1"));
+  EXPECT_THAT(test::error_message<UsageError>([] { parse_exposure_list("0.1,0"); }), HasSubstr("entry 2 '0'"));
 }
 
 TEST(ExposureFile, MatchesImagesByNameAndNamesBadLines) {
@@ -110,13 +100,13 @@ TEST(ExposureFile, MatchesImagesByNameAndNamesBadLines) {
   ASSERT_EQ(t.size(), 2u);
   EXPECT_DOUBLE_EQ(t[0], 0.25);
   EXPECT_DOUBLE_EQ(t[1], 0.5);
-  EXPECT_THAT(error_of<DataError>([&] { read_exposure_file(dir / "times.txt", {"c.png"}); }),
+  EXPECT_THAT(test::error_message<DataError>([&] { read_exposure_file(dir / "times.txt", {"c.png"}); }),
               HasSubstr("no exposure time for image 'c.png'"));
   test::write_text(dir / "bad.txt", "a.png 0.5\nb.png fast\n");
-  EXPECT_THAT(error_of<DataError>([&] { read_exposure_file(dir / "bad.txt", {"a.png"}); }),
+  EXPECT_THAT(test::error_message<DataError>([&] { read_exposure_file(dir / "bad.txt", {"a.png"}); }),
               HasSubstr("bad.txt:2: 'fast'"));
   test::write_text(dir / "extra.txt", "a.png 0.5 8\n");
-  EXPECT_THAT(error_of<DataError>([&] { read_exposure_file(dir / "extra.txt", {"a.png"}); }),
+  EXPECT_THAT(test::error_message<DataError>([&] { read_exposure_file(dir / "extra.txt", {"a.png"}); }),
               HasSubstr("extra.txt:1: expected 'name time'"));
   EXPECT_THROW(read_exposure_file(dir / "missing.txt", {"a.png"}), IoError);
 }
@@ -127,12 +117,12 @@ TEST(ExposureStack, LoadChecksCountsSizesAndDepth) {
   write_png(dir / "a.png", a, 16);
   write_png(dir / "b.png", b, 16);
   write_png(dir / "c.png", c, 16);
-  EXPECT_THAT(error_of<UsageError>([&] { load_exposure_stack({dir / "a.png", dir / "b.png"}, {0.1}); }),
+  EXPECT_THAT(test::error_message<UsageError>([&] { load_exposure_stack({dir / "a.png", dir / "b.png"}, {0.1}); }),
               HasSubstr("2 images but 1 exposure times"));
-  EXPECT_THAT(error_of<DataError>([&] { load_exposure_stack({dir / "a.png", dir / "c.png"}, {0.1, 0.2}); }),
+  EXPECT_THAT(test::error_message<DataError>([&] { load_exposure_stack({dir / "a.png", dir / "c.png"}, {0.1, 0.2}); }),
               HasSubstr("c.png: 9x6"));
   test::write_text(dir / "junk.png", "not an image");
-  EXPECT_THAT(error_of<DataError>([&] { load_exposure_stack({dir / "a.png", dir / "junk.png"}, {0.1, 0.2}); }),
+  EXPECT_THAT(test::error_message<DataError>([&] { load_exposure_stack({dir / "a.png", dir / "junk.png"}, {0.1, 0.2}); }),
               HasSubstr("junk.png"));
   EXPECT_THROW(load_exposure_stack({dir / "a.png", dir / "none.png"}, {0.1, 0.2}), IoError);
   auto s = load_exposure_stack({dir / "a.png", dir / "b.png"}, {0.1, 0.2});
@@ -152,7 +142,7 @@ TEST(ExposureStack, TwelveBitDataMsbAlignedIsShiftedDown) {
   EXPECT_EQ(m.images[0].at(1, 1), 4000);
   Image<std::uint16_t> odd(4, 4, 1, 5001);
   write_png(dir / "odd.png", odd, 16);
-  EXPECT_THAT(error_of<DataError>([&] { load_exposure_stack({dir / "odd.png"}, {0.1}, 12); }),
+  EXPECT_THAT(test::error_message<DataError>([&] { load_exposure_stack({dir / "odd.png"}, {0.1}, 12); }),
               HasSubstr("exceed 4095"));
 }
 
@@ -312,18 +302,18 @@ TEST(Response, JsonRoundTrip) {
   Json j = read_json_file(dir / "response.json");
   j["linear"][1].erase(0);
   write_json_file(dir / "bad.json", j);
-  EXPECT_THAT(error_of<DataError>([&] { ResponseCurve::load(dir / "bad.json"); }), HasSubstr("bad.json"));
+  EXPECT_THAT(test::error_message<DataError>([&] { ResponseCurve::load(dir / "bad.json"); }), HasSubstr("bad.json"));
 }
 
 TEST(Response, RejectsStacksWithoutUsableData) {
   Image<std::uint16_t> a(32, 32, 1, 100), b(32, 32, 1, 120);
   std::vector<StackFrame> same{{&a, 0.1}, {&b, 0.1}};
-  EXPECT_THAT(error_of<DataError>([&] { recover_response(same, 8, {}); }), HasSubstr("same exposure time"));
+  EXPECT_THAT(test::error_message<DataError>([&] { recover_response(same, 8, {}); }), HasSubstr("same exposure time"));
   Image<std::uint16_t> full(32, 32, 1, 255);
   std::vector<StackFrame> saturated{{&full, 0.1}, {&full, 0.2}};
-  EXPECT_THAT(error_of<CalibrationError>([&] { recover_response(saturated, 8, {}); }), HasSubstr("usable"));
+  EXPECT_THAT(test::error_message<CalibrationError>([&] { recover_response(saturated, 8, {}); }), HasSubstr("usable"));
   std::vector<StackFrame> one{{&a, 0.1}};
-  EXPECT_THAT(error_of<DataError>([&] { recover_response(one, 8, {}); }), HasSubstr("at least 2"));
+  EXPECT_THAT(test::error_message<DataError>([&] { recover_response(one, 8, {}); }), HasSubstr("at least 2"));
 }
 
 TEST(Response, NoDataColourIsIgnored) {
@@ -371,12 +361,12 @@ TEST(ExposureStack, TheTimesComeFromTheListTheFileOrTheFoldersExposuresTxt) {
   EXPECT_EQ(load_stack_files({folder}, "0.1,1/5", "").exposures_s, (std::vector<double>{0.1, 0.2}));
   test::write_text(dir / "times.txt", "a.png 0.3\nb.png 0.6\n");
   EXPECT_EQ(load_stack_files({folder}, "", dir / "times.txt").exposures_s, (std::vector<double>{0.3, 0.6}));
-  EXPECT_THAT(error_of<UsageError>([&] { load_stack_files({folder}, "", ""); }),
+  EXPECT_THAT(test::error_message<UsageError>([&] { load_stack_files({folder}, "", ""); }),
               HasSubstr("give the exposure times: --exposures LIST or --exposure-file F"));
   test::write_text(dir / "stack" / "exposures.txt", "a.png 0.01\nb.png 0.02\n");  // the folder's own
   EXPECT_EQ(load_stack_files({folder}, "", "").exposures_s, (std::vector<double>{0.01, 0.02}));
-  EXPECT_THAT(error_of<UsageError>([&] { load_stack_files({folder}, "0.1", dir / "times.txt"); }),
+  EXPECT_THAT(test::error_message<UsageError>([&] { load_stack_files({folder}, "0.1", dir / "times.txt"); }),
               HasSubstr("not both"));
-  EXPECT_THAT(error_of<UsageError>([&] { load_stack_files({folder}, "0.1", ""); }),
+  EXPECT_THAT(test::error_message<UsageError>([&] { load_stack_files({folder}, "0.1", ""); }),
               HasSubstr("--exposures gives 1 times for 2 images"));
 }

@@ -132,12 +132,8 @@ TEST(SphereSim, NoSphereInTheImageSaysSo) {
   SphereOptions o;
   o.radius_m = 0.04;
   ImageF dark(world.camera().width(), world.camera().height(), 1, 0.0f);
-  try {
-    fit_sphere({{"lens-cap", dark}}, truth_camera(world), o);
-    FAIL() << "expected a CalibrationError";
-  } catch (const CalibrationError& e) {
-    EXPECT_THAT(e.what(), ::testing::HasSubstr("no bright sphere found in 'lens-cap'"));
-  }
+  EXPECT_THAT(test::error_message<CalibrationError>([&] { fit_sphere({{"lens-cap", dark}}, truth_camera(world), o); }),
+              ::testing::HasSubstr("no bright sphere found in 'lens-cap'"));
 }
 
 // Found fuzzing sphere.json: a centre covariance of another shape was assigned to the 3 x 3

@@ -3,6 +3,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "test_util.h"
+
 namespace paintlab {
 namespace {
 
@@ -25,19 +27,11 @@ TEST(EnumNames, AValueOutsideTheTableGetsTheFallback) {
 }
 
 TEST(EnumNames, AnUnknownNameIsADataErrorNamingWhereWhatAndEveryChoice) {
-  try {
-    enum_from_name(kColourNames, "Red", "colour", "paint.toml:3: key 'tint'");
-    FAIL() << "no error";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("paint.toml:3: key 'tint': unknown colour 'Red' (expected red, green or blue)"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { enum_from_name(kColourNames, "Red", "colour", "paint.toml:3: key 'tint'"); }),
+              HasSubstr("paint.toml:3: key 'tint': unknown colour 'Red' (expected red, green or blue)"));
   // Without a place the message starts with what was wrong.
-  try {
-    enum_from_name(kColourNames, "", "colour");
-    FAIL() << "no error";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("unknown colour '' (expected red, green or blue)"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { enum_from_name(kColourNames, "", "colour"); }),
+              HasSubstr("unknown colour '' (expected red, green or blue)"));
 }
 
 TEST(EnumNames, ChoicesReadAsAList) {

@@ -118,12 +118,8 @@ encoder_position = { address = 22 }
     EXPECT_EQ(e.line(), 18);
   }
   // target_position (2 words at 10..11) overlaps speed at 11.
-  try {
-    register_map_from_config(root.table("e"));
-    FAIL() << "overlap accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_THAT(e.what(), ::testing::HasSubstr("overlaps"));
-  }
+  EXPECT_THAT(test::error_message<ConfigError>([&] { register_map_from_config(root.table("e")); }),
+              ::testing::HasSubstr("overlaps"));
 }
 
 TEST(TrapezoidProfile, TrapezoidAndTriangle) {

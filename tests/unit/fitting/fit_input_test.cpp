@@ -51,11 +51,7 @@ TEST(FitInput, AFilledTableLeavesItsFilledBinsOutWithItsMapAndIsWarnedAboutWitho
 
 TEST(FitInput, NeitherATableNorASessionIsAnErrorNamingThePath) {
   test::TempDir dir;
-  try {
-    load_fit_input(dir.path(), SessionBinOptions{});
-    FAIL() << "a folder without session.json was read";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("a folder without session.json"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { load_fit_input(dir.path(), SessionBinOptions{}); }),
+              HasSubstr("a folder without session.json"));
   EXPECT_THROW(load_fit_input(dir / "missing.binary", SessionBinOptions{}), IoError);
 }

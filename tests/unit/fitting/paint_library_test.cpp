@@ -139,12 +139,8 @@ TEST(PaintLibrary, AddListLoadRemove) {
   lib.remove("silver");
   EXPECT_EQ(names(lib.list()), std::vector<std::string>{"blue"});
   EXPECT_FALSE(fs::exists(tmp / "lib" / es.file));
-  try {
-    lib.remove("silver");
-    FAIL();
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("no paint 'silver' (paints: blue)"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { lib.remove("silver"); }),
+              HasSubstr("no paint 'silver' (paints: blue)"));
   EXPECT_TRUE(lib.check().empty());
 }
 
@@ -153,13 +149,8 @@ TEST(PaintLibrary, DuplicateNamesNeedReplace) {
   PaintLibrary lib = PaintLibrary::open(tmp.path(), true);
   const LibraryEntry first = lib.add(make_paint("silver", 0.3), false);
   const std::string index_before = read_file(tmp / "index.json");
-  try {
-    lib.add(make_paint("silver", 0.4), false);
-    FAIL() << "a duplicate name was accepted";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("a paint named 'silver' is already there"));
-    EXPECT_THAT(e.what(), HasSubstr("--replace"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { lib.add(make_paint("silver", 0.4), false); }),
+              ::testing::AllOf(HasSubstr("a paint named 'silver' is already there"), HasSubstr("--replace")));
   EXPECT_EQ(read_file(tmp / "index.json"), index_before);
   EXPECT_TRUE(lib.check().empty());
 
@@ -175,12 +166,8 @@ TEST(PaintLibrary, RefusesFoldersThatAreNotLibraries) {
   test::TempDir tmp;
   EXPECT_THROW(PaintLibrary::open(tmp / "none", false), DataError);
   test::write_text(tmp / "other/notes.txt", "not a library\n");
-  try {
-    PaintLibrary::open(tmp / "other", true);
-    FAIL();
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("not empty"));
-  }
+  EXPECT_THAT(test::error_message<DataError>([&] { PaintLibrary::open(tmp / "other", true); }),
+              HasSubstr("not empty"));
   test::write_text(tmp / "broken/index.json", "{\"format\": \"paintlab-library\", \"format_version\": 9, \"paints\": []}");
   EXPECT_THROW(PaintLibrary::open(tmp / "broken", false), DataError);
 }

@@ -15,6 +15,7 @@
 #include "paintlab/sim/peers/sim_rig.h"
 #include "sim_rigs.h"
 #include "sim_test_util.h"
+#include "test_util.h"
 
 using namespace paintlab;
 using ::testing::HasSubstr;
@@ -95,19 +96,10 @@ TEST(SceneRender, BadRequestsAreRefusedNamingTheField) {
   EXPECT_THROW(sim::render_scene(world, q), UsageError);
   q = {};
   q.exposure_s = 0.0;
-  try {
-    sim::render_scene(world, q);
-    FAIL() << "no error";
-  } catch (const UsageError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("exposure_s"));
-  }
-  try {
-    sim::scene_kind_from_string("board", "--scene");
-    FAIL() << "no error";
-  } catch (const DataError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("--scene"));
-    EXPECT_THAT(e.what(), HasSubstr("chessboard"));
-  }
+  EXPECT_THAT(test::error_message<UsageError>([&] { sim::render_scene(world, q); }),
+              HasSubstr("exposure_s"));
+  EXPECT_THAT(test::error_message<DataError>([&] { sim::scene_kind_from_string("board", "--scene"); }),
+              ::testing::AllOf(HasSubstr("--scene"), HasSubstr("chessboard")));
 }
 
 TEST(SimRigShow, AFixedSceneIsExposedThroughTheSensorWithTheCamerasBlackLevel) {
