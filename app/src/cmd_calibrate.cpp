@@ -389,7 +389,9 @@ void register_calibrate_commands(CLI::App& app) {
   // sphere, light, scale: their help and default angles come from the procedure.
   const std::pair<const char*, void (*)(CalibrateContext&, const std::string&)> geometric[] = {
       {"sphere", &run_sphere}, {"light", &run_light}, {"scale", &run_scale}};
-  for (const auto& [name, run] : geometric) {
+  for (const auto& geo : geometric) {
+    const char* name = geo.first;
+    const auto run = geo.second;  // a plain variable: lambdas capture it (not a structured binding)
     const std::string step = name, angles = calib::procedure_step(step).angles;
     auto common = std::make_shared<StepCommon>();
     auto chosen = std::make_shared<std::string>(angles);

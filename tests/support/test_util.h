@@ -47,6 +47,10 @@ std::string error_message(F&& f) {
   return "(no error)";
 }
 
+// The [devices] tables of a rig.toml whose turntable, light and camera are all simulated.
+inline const std::string kSimDevicesToml =
+    "[devices.turntable]\nkind = \"sim\"\n[devices.light]\nkind = \"sim\"\n[devices.camera]\nkind = \"sim\"\n";
+
 // Writes text to a file (creating folders).
 void write_text(const std::filesystem::path& path, const std::string& text);
 

@@ -8,14 +8,7 @@ using namespace paintlab;
 using ::testing::HasSubstr;
 
 namespace {
-const char* kMinimal = R"(name = "r1"
-[devices.turntable]
-kind = "sim"
-[devices.light]
-kind = "sim"
-[devices.camera]
-kind = "sim"
-[geometry]
+const std::string kMinimal = "name = \"r1\"\n" + test::kSimDevicesToml + R"([geometry]
 sphere_radius_m = 0.04
 arm_radius_m = 0.6
 camera_distance_m = 1.2

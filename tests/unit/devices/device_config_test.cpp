@@ -90,16 +90,8 @@ max_on_s = -1
 kind = "sim"
 )")),
                ConfigError);
-  EXPECT_THROW(dev::validate_device_sections(parse(R"(
-[devices.turntable]
-kind = "sim"
-[devices.light]
-kind = "sim"
-[devices.camera]
-kind = "sim"
-id = "192.168.1.2"
-)")),
-               ConfigError);
+  EXPECT_THROW(dev::validate_device_sections(parse("\n" + test::kSimDevicesToml + "id = \"192.168.1.2\"\n")),
+               ConfigError);  // a simulated camera has no address
   RigConfig ok = parse(R"(
 [devices.turntable]
 kind = "sim"

@@ -62,14 +62,7 @@ void expect_recovered(const brdf::AxfCarPaintParams& t, const AxfFit& f, double 
 }
 
 // Small fits for unit tests: two lobes, fewer starts on a smaller subsample.
-AxfFitOptions quick_options() {
-  AxfFitOptions opt;
-  opt.lobes = 2;
-  opt.grid_starts = 2;
-  opt.random_starts = 1;
-  opt.start_bins = 6000;
-  return opt;
-}
+AxfFitOptions quick_options() { return test_support::quick_fit<AxfFitOptions>(2); }
 
 TEST(AxfFit, RecoversTheAchromaticLobesAndTheColourTableOfATabulatedPaint) {
   const brdf::AxfCarPaintParams truth = truth_paint();

@@ -60,14 +60,7 @@ void expect_recovered(const brdf::CookTorranceParams& truth, const brdf::CookTor
 // Unit tests keep the fits small (tens of thousands of bins, fewer starts): the full-table
 // fit is bench/fitting's BM_FitCookTorranceFullTable, the whole-pipeline accuracy is
 // tests/integration/fitting/sim_pipeline_test.cpp.
-CtFitOptions quick_options(int lobes) {
-  CtFitOptions opt;
-  opt.lobes = lobes;
-  opt.grid_starts = 2;
-  opt.random_starts = 1;
-  opt.start_bins = 6000;
-  return opt;
-}
+CtFitOptions quick_options(int lobes) { return test_support::quick_fit<CtFitOptions>(lobes); }
 
 TEST(CookTorranceFit, RecoversThreeLobesFromATabulatedPaintExactly) {
   const brdf::CookTorranceParams truth = silver_params();

@@ -65,6 +65,17 @@ inline brdf::MerlTable tabulate_sparse(const brdf::Brdf& paint, std::size_t stri
 
 // A white pearlescent paint: a layered paint that is no sum of Cook-Torrance lobes, so one
 // iteration of a Cook-Torrance fit cannot converge on it (and a full fit needs many).
+// Small multi-start fits for unit tests: two grid starts, one random, a 6000-bin subsample.
+template <class Options>
+Options quick_fit(int lobes) {
+  Options opt;
+  opt.lobes = lobes;
+  opt.grid_starts = 2;
+  opt.random_starts = 1;
+  opt.start_bins = 6000;
+  return opt;
+}
+
 inline brdf::PearlescentParams white_pearl() {
   brdf::PearlescentParams p;
   p.substrate = brdf::Rgb(0.85, 0.85, 0.87);

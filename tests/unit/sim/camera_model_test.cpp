@@ -13,13 +13,7 @@ using namespace paintlab;
 namespace {
 
 sim::CameraTruth distorted_camera() {
-  sim::CameraTruth t = sim::test::small_config(8.0).camera;
-  t.fx_px = 1250.0;
-  t.fy_px = 1243.0;
-  t.cx_px = 163.2;
-  t.cy_px = 117.9;
-  t.dist = {-0.28, 0.11, 0.0012, -0.0009, -0.02};
-  return t;
+  return sim::test::camera_with(1250.0, 1243.0, 163.2, 117.9, {-0.28, 0.11, 0.0012, -0.0009, -0.02});
 }
 
 }  // namespace

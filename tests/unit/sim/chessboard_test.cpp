@@ -15,12 +15,7 @@ using namespace paintlab;
 namespace {
 
 sim::CameraTruth camera_truth() {
-  sim::CameraTruth t = sim::test::small_config(8.0).camera;
-  t.fx_px = 520.0;
-  t.fy_px = 518.0;
-  t.cx_px = 161.7;
-  t.cy_px = 118.4;
-  t.dist = {-0.24, 0.09, 0.0011, -0.0007, -0.015};
+  sim::CameraTruth t = sim::test::camera_with(520.0, 518.0, 161.7, 118.4, {-0.24, 0.09, 0.0011, -0.0007, -0.015});
   t.psf_sigma_px = 0.7;  // a slightly soft lens, as real ones are
   return t;
 }

@@ -11,14 +11,7 @@ using ::testing::HasSubstr;
 
 namespace {
 
-const char* kRig = R"(name = "r1"
-[devices.turntable]
-kind = "sim"
-[devices.light]
-kind = "sim"
-[devices.camera]
-kind = "sim"
-[geometry]
+const std::string kRig = "name = \"r1\"\n" + test::kSimDevicesToml + R"([geometry]
 sphere_radius_m = 0.04
 arm_radius_m = 0.6
 camera_distance_m = 1.2
@@ -30,7 +23,7 @@ exposures_ms = [0.25, 1, 4]
 )";
 
 sim::SimConfig parse(const std::string& sim_part) {
-  RigConfig rig = RigConfig::parse(ConfigTable::parse_string(std::string(kRig) + sim_part, "rig.toml"), "/lab/rig.toml");
+  RigConfig rig = RigConfig::parse(ConfigTable::parse_string(kRig + sim_part, "rig.toml"), "/lab/rig.toml");
   return sim::SimConfig::from_rig(rig);
 }
 

@@ -1,5 +1,6 @@
 #pragma once
 // Small simulated worlds and analytic BRDFs for the sim tests.
+#include <array>
 #include <cmath>
 
 #include "paintlab/brdf/brdf.h"
@@ -21,6 +22,17 @@ inline SimConfig small_config(double focal_length_mm = 12.0, int width = 320, in
   g.image_width_px = width;
   g.image_height_px = height;
   return SimConfig::defaults(g);
+}
+
+// The small rig's 8 mm camera with these intrinsics (px) and OpenCV distortion.
+inline CameraTruth camera_with(double fx, double fy, double cx, double cy, const std::array<double, 5>& dist) {
+  CameraTruth t = small_config(8.0).camera;
+  t.fx_px = fx;
+  t.fy_px = fy;
+  t.cx_px = cx;
+  t.cy_px = cy;
+  t.dist = dist;
+  return t;
 }
 
 // f = kd / pi + ks * D(theta_h) / (4 cos_i cos_o) with a Beckmann D of roughness m: an
