@@ -71,42 +71,23 @@ int run_render(const RenderArgs& a) {
   }
   const sim::SceneRender scene = sim::render_scene(world, q);
   const ImageF& radiance = scene.radiance;
-  const int channels = q.channels;
   const std::string& what = scene.description;
-
   if (ext == ".exr") {
-    ExrImage exr;
-    if (channels == 1) {
-      exr.add("Y", radiance);
-    } else {
-      const char* names[3] = {"R", "G", "B"};
-      for (int c = 0; c < 3; ++c) {
-        ImageF plane(radiance.width(), radiance.height(), 1);
-        for (std::size_t i = 0; i < plane.size(); ++i) plane.data()[i] = radiance.data()[i * 3 + c];
-        exr.add(names[c], std::move(plane));
-      }
-    }
-    exr.attributes["paintlab.content"] = "simulated scene radiance, W sr^-1 m^-2, linear camera RGB";
-    exr.attributes["paintlab.scene"] = what;
-    exr.attributes["paintlab.rig"] = rig.file.string();
-    write_exr(a.out, exr);
-    float peak = radiance.empty() ? 0.0f : *std::max_element(radiance.values().begin(), radiance.values().end());
+    write_exr(a.out, sim::scene_exr(scene, rig.file.string()));
+    const float peak = radiance.empty() ? 0.0f : *std::max_element(radiance.values().begin(), radiance.values().end());
     say(fmt::format("wrote {}: {} ({}x{}, {}), radiance up to {:.4g} W sr^-1 m^-2", a.out, what, radiance.width(),
-                    radiance.height(), channels == 1 ? "Y" : "RGB", peak));
+                    radiance.height(), q.channels == 1 ? "Y" : "RGB", peak));
     return 0;
   }
   sim::ExposureSettings e;
   e.exposure_s = exposure_s;
   e.gain_db = a.gain_db;
-  e.output_bits = 16;
   e.frame_index = a.frame;
-  Image<std::uint16_t> raw = world.sensor().expose(radiance, e, a.threads);
-  write_png(a.out, raw, 16);
-  const std::uint16_t top = static_cast<std::uint16_t>(world.config().sensor.adc_max_dn()) << (16 - world.config().sensor.adc_bits);
-  auto saturated = std::count(raw.values().begin(), raw.values().end(), top);
+  const sim::SceneFrame frame = sim::expose_scene(world, scene, e, a.threads);
+  write_png(a.out, frame.raw, 16);
   say(fmt::format("wrote {}: {} exposed {:g} ms at {:g} dB ({}x{}, 16-bit, {}-bit ADC MSB aligned), {} saturated values",
-                  a.out, what, a.exposure_ms, a.gain_db, raw.width(), raw.height(), world.config().sensor.adc_bits,
-                  saturated));
+                  a.out, what, a.exposure_ms, a.gain_db, frame.raw.width(), frame.raw.height(),
+                  world.config().sensor.adc_bits, frame.saturated));
   return 0;
 }
 

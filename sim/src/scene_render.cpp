@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "paintlab/core/enum_names.h"
@@ -96,6 +97,36 @@ SceneRender render_scene(SimWorld& world, const SceneRequest& q) {
       break;
   }
   return out;
+}
+
+ExrImage scene_exr(const SceneRender& scene, const std::string& rig_file) {
+  const ImageF& r = scene.radiance;
+  ExrImage exr;
+  if (r.channels() == 1) {
+    exr.add("Y", r);
+  } else {
+    const char* names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; ++c) {
+      ImageF plane(r.width(), r.height(), 1);
+      for (std::size_t i = 0; i < plane.size(); ++i) plane.data()[i] = r.data()[i * 3 + c];
+      exr.add(names[c], std::move(plane));
+    }
+  }
+  exr.attributes["paintlab.content"] = "simulated scene radiance, W sr^-1 m^-2, linear camera RGB";
+  exr.attributes["paintlab.scene"] = scene.description;
+  exr.attributes["paintlab.rig"] = rig_file;
+  return exr;
+}
+
+SceneFrame expose_scene(SimWorld& world, const SceneRender& scene, const ExposureSettings& settings, int threads) {
+  ExposureSettings e = settings;
+  e.output_bits = 16;
+  SceneFrame f;
+  f.raw = world.sensor().expose(scene.radiance, e, threads);
+  const auto& sensor = world.config().sensor;
+  const auto top = static_cast<std::uint16_t>(static_cast<unsigned>(sensor.adc_max_dn()) << (16 - sensor.adc_bits));
+  f.saturated = std::count(f.raw.values().begin(), f.raw.values().end(), top);
+  return f;
 }
 
 }  // namespace paintlab::sim

@@ -138,3 +138,36 @@ TEST(SimRigShow, AFixedSceneIsExposedThroughTheSensorWithTheCamerasBlackLevel) {
   const double half = 0.5 * (w.config().sensor.adc_max_dn() - black);
   EXPECT_NEAR(centre - black, half, 0.1 * half);
 }
+
+TEST(SceneRender, TheExrCarriesTheChannelsAndSaysWhatItShows) {
+  sim::SimWorld world(sim::test::small_config());
+  sim::SceneRequest q;
+  q.kind = sim::SceneKind::Flat;
+  q.channels = 3;
+  const sim::SceneRender colour = sim::render_scene(world, q);
+  const ExrImage exr = sim::scene_exr(colour, "/lab/rig.toml");
+  EXPECT_EQ(exr.names, (std::vector<std::string>{"R", "G", "B"}));
+  EXPECT_FLOAT_EQ(exr.plane("G").at(10, 20), colour.radiance.at(10, 20, 1));
+  EXPECT_EQ(exr.attributes.at("paintlab.scene"), colour.description);
+  EXPECT_EQ(exr.attributes.at("paintlab.rig"), "/lab/rig.toml");
+  q.channels = 1;
+  EXPECT_EQ(sim::scene_exr(sim::render_scene(world, q), "").names, (std::vector<std::string>{"Y"}));
+}
+
+TEST(SceneRender, AnOverexposedFrameCountsItsClippedValues) {
+  sim::SimWorld world(sim::test::small_config());
+  sim::SceneRequest q;
+  q.kind = sim::SceneKind::Flat;
+  q.exposure_s = 0.01;  // half the full well in 10 ms
+  const sim::SceneRender flat = sim::render_scene(world, q);
+  sim::ExposureSettings e;
+  e.exposure_s = 0.01;
+  e.frame_index = 1;
+  const sim::SceneFrame half = sim::expose_scene(world, flat, e);
+  EXPECT_EQ(half.raw.width(), 320);
+  EXPECT_EQ(half.saturated, 0);
+  e.exposure_s = 0.1;  // five times the full well
+  const sim::SceneFrame over = sim::expose_scene(world, flat, e);
+  EXPECT_GT(over.saturated, 320 * 240 / 2);
+  EXPECT_LE(over.saturated, 320 * 240);
+}

@@ -7,6 +7,8 @@
 #include <string_view>
 
 #include "paintlab/core/image.h"
+#include "paintlab/core/image_io.h"
+#include "paintlab/sim/sensor.h"
 #include "paintlab/sim/world.h"
 
 namespace paintlab::sim {
@@ -36,6 +38,18 @@ struct SceneRender {
   ImageF radiance;          // channels as requested
   std::string description;  // e.g. "white reference sphere (albedo 0.99) at table angle 30 deg"
 };
+
+// The scene's radiance as an EXR (channel Y, or R, G, B) with what it shows and the rig file
+// in its header (paintlab.content, paintlab.scene, paintlab.rig).
+ExrImage scene_exr(const SceneRender& scene, const std::string& rig_file);
+
+// One raw frame of the scene through `world`'s sensor, 16-bit MSB-aligned, and how many of
+// its values are clipped at the ADC's top.
+struct SceneFrame {
+  Image<std::uint16_t> raw;
+  long long saturated = 0;
+};
+SceneFrame expose_scene(SimWorld& world, const SceneRender& scene, const ExposureSettings& settings, int threads = 0);
 
 // The scene in `world` (the sphere scene shows the world's paint). Boards come from
 // chessboard_poses/charuco_poses with the world's seed: view v is pose v of v + 1.
