@@ -94,6 +94,27 @@ Runner::Runner(const SessionDir& session, RigHandles rig, MergeFn merge, RunnerO
   options_.check();  // a negative max_retries would never switch the LED off
 }
 
+std::string RunSummary::describe(const fs::path& session_dir) const {
+  const int finished = finished_before + measured;
+  std::string s = fmt::format("positions: {} of {} finished ({} in this run, {} before)\n", finished, positions,
+                              measured, finished_before);
+  for (const auto& f : resume_findings) s += "resume: " + f + "\n";
+  if (frames > 0) {
+    const double minimum = physical_min_s();
+    s += fmt::format("sweep time on the rig clock: {:.1f} s; physical minimum {:.1f} s (motion {:.1f} + settle {:.1f} + "
+                     "exposure {:.1f} + readout {:.1f}); ratio {:.3f}\n",
+                     sweep_s, minimum, motion_s, settle_s, exposure_s, readout_s,
+                     minimum > 0 ? sweep_s / minimum : 0.0);
+    s += fmt::format("frames: {}, retries: {}, wall time {:.1f} s\n", frames, retries, wall_s);
+  }
+  if (skipped_frames > 0)
+    s += fmt::format("adaptive bracketing skipped {} frames, saving {:.1f} s\n", skipped_frames, skipped_s);
+  if (complete) return s + "session complete: " + session_dir.string() + "\n";
+  s += fmt::format("stopped safely ({}): the LED is off, the table stopped, {} positions are journaled.\n",
+                   interrupted ? "interrupted" : stop_reason, finished);
+  return s + "resume with: paintlab measure --resume " + session_dir.string() + "\n";
+}
+
 RunSummary Runner::run(const std::atomic<bool>& stop) {
   const auto wall_start = std::chrono::steady_clock::now();
   const SessionManifest& plan = session_.manifest();

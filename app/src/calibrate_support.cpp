@@ -72,20 +72,14 @@ class SimStage final : public acq::Stage {
   SimStage(sim::SimRig& rig, double albedo) : rig_(rig), albedo_(albedo > 0 ? albedo : 0.99), sample_(rig.world().paint()) {}
 
   void show_board(int index, int count, const calib::BoardSpec& board) override {
-    sim::SimWorld& w = rig_.world();
-    sim::Chessboard cb;
-    cb.cols = board.cols;
-    cb.rows = board.rows;
-    cb.square_m = board.square_m;
-    if (poses_.size() != static_cast<std::size_t>(count) || board_cols_ != board.cols)
-      poses_ = sim::chessboard_poses(w.camera(), cb, count, w.config().seed);
-    board_cols_ = board.cols;
-    // Lit so that white reaches half the full well in 10 ms at the image centre.
-    sim::PlaneLighting light;
-    light.irradiance_w_m2 = w.irradiance_for_fill(0.5, 0.01, cb.white_albedo);
-    auto radiance = std::make_shared<ImageF>(
-        sim::render_chessboard(w.camera(), cb, poses_[static_cast<std::size_t>(index)], light, 16, 1, 0));
-    rig_.show(std::move(radiance));
+    sim::SceneRequest q;  // lit so that white reaches half the full well in 10 ms at the image centre
+    q.kind = sim::SceneKind::Chessboard;
+    q.chessboard.cols = board.cols;
+    q.chessboard.rows = board.rows;
+    q.chessboard.square_m = board.square_m;
+    q.view = index;
+    q.views = count;
+    rig_.show(std::make_shared<ImageF>(sim::render_scene(rig_.world(), q).radiance));
     board_shown_ = true;
   }
 
@@ -122,8 +116,6 @@ class SimStage final : public acq::Stage {
   sim::SimRig& rig_;
   double albedo_;
   sim::SimPaint sample_;
-  std::vector<Rigid3> poses_;
-  int board_cols_ = 0;
   bool board_shown_ = false;
 };
 

@@ -79,8 +79,9 @@ void check_command_words(const CLI::App& app, int argc, const char* const* argv)
   }
 }
 
-void say(const std::string& line) {
-  std::fputs(line.c_str(), stdout);
+void say(std::string_view text) {
+  while (!text.empty() && text.back() == '\n') text.remove_suffix(1);
+  std::fwrite(text.data(), 1, text.size(), stdout);
   std::fputc('\n', stdout);
   std::fflush(stdout);
 }

@@ -6,6 +6,8 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "paintlab/core/error.h"
 
@@ -15,6 +17,17 @@ namespace paintlab::app {
 // line is parsed and logging is set up; its return value is the exit code.
 void on_run(CLI::App* sub, std::function<int()> run);
 
+// The command `name` under `parent` with its arguments: an Args that the add_option calls
+// that follow bind into (it lives as long as the command line), and `run`, called with them
+// when the command is chosen (its return value is the exit code).
+template <class Args, class Run>
+std::pair<CLI::App*, Args*> add_command(CLI::App* parent, const std::string& name, const std::string& help, Run run) {
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = parent->add_subcommand(name, help);
+  on_run(cmd, [args, run] { return run(*args); });
+  return {cmd, args.get()};
+}
+
 // The function chosen by the command line, or nullptr.
 const std::function<int()>* chosen_command();
 
@@ -22,8 +35,9 @@ const std::function<int()>* chosen_command();
 // files can add subcommands to one group.
 CLI::App* subcommand_group(CLI::App& app, const std::string& name, const std::string& description);
 
-// Prints one result line to stdout (not through the logger, so -q keeps it).
-void say(const std::string& line);
+// Prints result lines to stdout (not through the logger, so -q keeps them); trailing
+// newlines of `text` are dropped (one ends every say).
+void say(std::string_view text);
 
 // Records that `option` (a flag such as --lobes) sets these fields of library options
 // structs ("CtFitOptions::lobes"), so that an OptionError on one of them names the flag the

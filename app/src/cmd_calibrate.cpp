@@ -43,12 +43,14 @@ namespace paintlab::app {
 
 namespace {
 
-// What every `calibrate STEP` takes.
+// What every `calibrate STEP` takes (each step's arguments derive from it).
 struct StepCommon {
   std::string rig;
   bool capture = false;
   std::string out;
-  StackInput input;  // --images (the radiometric steps: with their exposures)
+  StackInput input;            // --images (the radiometric steps: with their exposures)
+  std::string dark, response;  // --dark, --response: the steps that use them (procedure's `uses`)
+  double albedo = 0.0;         // --albedo (scale)
 };
 
 // ---- where a step's images come from and where its result goes ----
@@ -113,7 +115,7 @@ void save_step(CalibrateContext& c, const std::string& step, const Result& resul
 
 // ---- the steps ----
 
-struct IntrinsicsArgs {
+struct IntrinsicsArgs : StepCommon {
   std::string board = "9x6";
   double square_mm = 20.0;
   // 24: on a long lens the mapping around the sphere, which the light step magnifies, is
@@ -142,20 +144,19 @@ void run_intrinsics(CalibrateContext& c, const IntrinsicsArgs& a) {
   save_step(c, "intrinsics", acq::intrinsics_step(in, board, o, a.views));
 }
 
-struct DarkArgs {
+struct DarkArgs : StepCommon {
   double hot_sigma = 6.0;
   int frames = 8;
 };
 
-void run_dark(CalibrateContext& c, const DarkArgs& a, const StackInput& input) {
+void run_dark(CalibrateContext& c, const DarkArgs& a) {
   calib::DarkOptions opt;
   opt.hot_sigma = a.hot_sigma;
-  save_step(c, "dark", acq::dark_step(step_stack(c, "dark", input), opt, a.frames));
+  save_step(c, "dark", acq::dark_step(step_stack(c, "dark", a.input), opt, a.frames));
 }
 
-struct ResponseArgs {
+struct ResponseArgs : StepCommon {
   std::string method = "robertson";
-  std::string dark;
   double black = 0.0;
   double saturation = -1.0;
   double floor = -1.0;
@@ -166,7 +167,7 @@ struct ResponseArgs {
   double angle_deg = std::stod(calib::procedure_step("response").angles);  // the procedure's
 };
 
-void run_response(CalibrateContext& c, const ResponseArgs& a, const StackInput& input) {
+void run_response(CalibrateContext& c, const ResponseArgs& a) {
   calib::ResponseOptions opt;
   opt.method = calib::response_method_from_string(a.method, "--method");
   opt.black_dn = a.black;
@@ -178,7 +179,7 @@ void run_response(CalibrateContext& c, const ResponseArgs& a, const StackInput& 
   const std::optional<fs::path> dark_file = used_file(c, a.dark, calib::kDarkFile);
   std::optional<calib::DarkFrame> dark;
   if (dark_file) dark = calib::DarkFrame::load(*dark_file);
-  acq::StackImages in = step_stack(c, "response", input);
+  acq::StackImages in = step_stack(c, "response", a.input);
   if (dark_file) in.also_read.push_back(*dark_file);
   const acq::ResponseStep step = acq::response_step(in, opt, dark ? &*dark : nullptr, a.angle_deg, a.count);
   if (step.captured)
@@ -194,38 +195,41 @@ void run_response(CalibrateContext& c, const ResponseArgs& a, const StackInput& 
   save_step(c, "response", step.curve);
 }
 
-struct FlatArgs {
-  std::string response;
-  std::string dark;
+struct FlatArgs : StepCommon {
   int frames = 8;
 };
 
-void run_flat(CalibrateContext& c, const FlatArgs& a, const StackInput& input) {
+void run_flat(CalibrateContext& c, const FlatArgs& a) {
   const std::optional<fs::path> resp_file = used_file(c, a.response, calib::kResponseFile);
   const std::optional<fs::path> dark_file = used_file(c, a.dark, calib::kDarkFile);
   std::optional<calib::ResponseCurve> resp;
   std::optional<calib::DarkFrame> dark;
   if (resp_file) resp = calib::ResponseCurve::load(*resp_file);
   if (dark_file) dark = calib::DarkFrame::load(*dark_file);
-  acq::StackImages in = step_stack(c, "flat", input);
+  acq::StackImages in = step_stack(c, "flat", a.input);
   for (const auto& f : {resp_file, dark_file})
     if (f) in.also_read.push_back(*f);
   save_step(c, "flat", acq::flat_step(in, resp ? &*resp : nullptr, dark ? &*dark : nullptr, a.frames));
 }
 
-void run_sphere(CalibrateContext& c, const std::string& angles) {
+// sphere, light, scale: table angles (the procedure's by default).
+struct GeometricArgs : StepCommon {
+  std::string angles;
+};
+
+void run_sphere(CalibrateContext& c, const GeometricArgs& a) {
   save_step(c, "sphere",
             acq::sphere_step(step_images(c, "sphere", c.images), calib::RigCalibration::load(c.rig), c.rig,
-                             calib::parse_angles(angles, "--angles")));
+                             calib::parse_angles(a.angles, "--angles")));
 }
 
-void run_light(CalibrateContext& c, const std::string& angles) {
+void run_light(CalibrateContext& c, const GeometricArgs& a) {
   save_step(c, "light",
             acq::light_step(step_images(c, "light", c.images), calib::RigCalibration::load(c.rig), c.rig,
-                            calib::parse_angles(angles, "--angles")));
+                            calib::parse_angles(a.angles, "--angles")));
 }
 
-void run_scale(CalibrateContext& c, const std::string& angles) {
+void run_scale(CalibrateContext& c, const GeometricArgs& a) {
   const calib::RigCalibration cal = calib::RigCalibration::load(c.rig);
   cal.require({calib::kCameraFile, calib::kSphereFile, calib::kLightFile});
   double albedo = c.albedo;
@@ -235,7 +239,7 @@ void run_scale(CalibrateContext& c, const std::string& angles) {
   if (!cal.has(calib::kFlatFile))
     say("  no flat.json: the LED profile is not fitted (taken as uniform); run `paintlab calibrate flat` first to fit it");
   save_step(c, "scale",
-            acq::scale_step(step_images(c, "scale", c.images), cal, c.rig, calib::parse_angles(angles, "--angles"),
+            acq::scale_step(step_images(c, "scale", c.images), cal, c.rig, calib::parse_angles(a.angles, "--angles"),
                             albedo));
 }
 
@@ -243,26 +247,24 @@ void run_scale(CalibrateContext& c, const std::string& angles) {
 
 // What a step reads besides the rig: the images, the exposure file, and the calibration files
 // it linearises with (given, or the rig's), checked against what it writes.
-fit::OutputGuard step_inputs(const StepCommon& a, const std::optional<RigConfig>& rig,
-                             const std::vector<std::pair<const char*, std::string>>& used) {
+fit::OutputGuard step_inputs(const std::string& step, const StepCommon& a, const std::optional<RigConfig>& rig) {
   fit::OutputGuard guard;
   if (!a.input.images.empty())
     guard.inputs("--images", expand_input_files(a.input.images, "--images", kCalibrationImageExtensions));
   guard.input("--exposure-file", a.input.exposure_file);
-  for (const auto& [name, given] : used) {
-    const std::string flag = std::string("--") + fs::path(name).stem().string();
+  for (const std::string& name : calib::procedure_step(step).uses) {
+    const std::string flag = "--" + fs::path(name).stem().string();
+    const std::string& given = name == calib::kDarkFile ? a.dark : a.response;
     if (!given.empty()) guard.input(flag, given);
     else if (rig && fs::exists(rig->calibration_dir / name))
-      guard.input(std::string("the rig's ") + name, rig->calibration_dir / name);
+      guard.input("the rig's " + name, rig->calibration_dir / name);
   }
   return guard;
 }
 
 // `calibrate STEP` on its own: usage, the files it needs, its outputs against its inputs, the
 // devices when capturing (all before any work), then the step.
-void run_step_command(const std::string& step, const StepCommon& a, double albedo,
-                      const std::vector<std::pair<const char*, std::string>>& used,
-                      const std::function<void(CalibrateContext&)>& run) {
+void run_step_command(const std::string& step, const StepCommon& a, const std::function<void(CalibrateContext&)>& run) {
   const std::string cmd = "calibrate " + step;
   if (a.capture && a.rig.empty()) throw UsageError(cmd + ": --capture needs --rig");
   if (a.capture && !a.input.images.empty()) throw UsageError(cmd + ": give either --images or --capture, not both");
@@ -276,187 +278,136 @@ void run_step_command(const std::string& step, const StepCommon& a, double albed
     c.has_rig = true;
     calib::require_step_inputs(c.rig.calibration_dir, step, c.rig.file);
   }
-  check_step_outputs(step_inputs(a, rig, used), a.rig, {step}, a.out);
+  check_step_outputs(step_inputs(step, a, rig), a.rig, {step}, a.out);
   c.out = a.out;
   c.images = a.input.images;
-  c.albedo = albedo;
+  c.albedo = a.albedo;
   std::unique_ptr<CalibSession> session;
   if (a.capture) {
-    session = std::make_unique<CalibSession>(open_calib_session(c.rig, albedo));
+    session = std::make_unique<CalibSession>(open_calib_session(c.rig, a.albedo));
     c.session = session.get();
   }
   run(c);
 }
 
-// Adds the options every step has; `stack`: the radiometric steps' exposures too.
-void add_common(CLI::App* cmd, StepCommon* a, const std::string& step, bool stack,
-                const char* images_help = "images or folders (angles and exposures in the names, see docs)") {
-  const std::string file = calib::procedure_step(step).file;
-  if (stack)
-    add_stack_options(cmd, &a->input);
-  else
-    cmd->add_option("--images", a->input.images, images_help);
-  cmd->add_option("--rig", a->rig, "rig.toml: writes its calibration folder's " + file);
-  cmd->add_flag("--capture", a->capture, "capture through the rig's devices (needs --rig)");
-}
+// `calibrate all`: images from DIR/<step> or captured; the intrinsics' k3 choice.
+struct AllArgs : StepCommon {
+  std::string images_dir;
+  bool fix_k3 = false, free_k3 = false;
+};
 
-void add_out(CLI::App* cmd, StepCommon* a, const std::string& step) {
-  cmd->add_option("--out", a->out, "output file (default with --rig: the rig's " + calib::procedure_step(step).file + ")");
+// What `calibrate all` runs for each step (with the steps' defaults).
+using Runners = std::map<std::string, std::function<void(CalibrateContext&)>>;
+
+// `calibrate STEP` with the options every step has: --images (the radiometric steps: with
+// their exposures), --rig, --capture, and --out where the rig is not required; it runs
+// `run` with the arguments given, and `calibrate all` runs it with `defaults`.
+template <class Args>
+std::pair<CLI::App*, Args*> add_step(CLI::App* group, Runners& all, const std::string& step,
+                                     void (*run)(CalibrateContext&, const Args&), const Args& defaults = {}) {
+  const calib::ProcedureStep& p = calib::procedure_step(step);
+  const bool stack = step == "dark" || step == "response" || step == "flat";
+  const bool geometric = step == "sphere" || step == "light" || step == "scale";  // they need the rig
+  auto [cmd, a] = add_command<Args>(group, step, p.summary, [step, run](const Args& args) {
+    run_step_command(step, args, [&](CalibrateContext& c) { run(c, args); });
+    return kExitOk;
+  });
+  *a = defaults;
+  if (stack) add_stack_options(cmd, &a->input);
+  else cmd->add_option("--images", a->input.images, "images or folders (angles and exposures in the names, see docs)");
+  CLI::Option* rig = cmd->add_option("--rig", a->rig, "rig.toml: writes its calibration folder's " + p.file);
+  cmd->add_flag("--capture", a->capture, "capture through the rig's devices (needs --rig)");
+  if (geometric) rig->required();
+  else cmd->add_option("--out", a->out, "output file (default with --rig: the rig's " + p.file + ")");
+  all[step] = [run, defaults](CalibrateContext& c) { run(c, defaults); };
+  return {cmd, a};
 }
 
 }  // namespace
 
 void register_calibrate_commands(CLI::App& app) {
   CLI::App* group = subcommand_group(app, "calibrate", "Calibrate the rig (writes the rig's calibration folder)");
-  // What `calibrate all` runs for each step (with the steps' defaults).
-  auto runners = std::make_shared<std::map<std::string, std::function<void(CalibrateContext&)>>>();
-  auto step_command = [&](const char* step) { return group->add_subcommand(step, calib::procedure_step(step).summary); };
+  auto runners = std::make_shared<Runners>();
 
-  {
-    auto common = std::make_shared<StepCommon>();
-    auto a = std::make_shared<IntrinsicsArgs>();
-    CLI::App* cmd = step_command("intrinsics");
-    add_common(cmd, common.get(), "intrinsics", false, "chessboard photos or folders of them (8 or 16 bit)");
-    add_out(cmd, common.get(), "intrinsics");
-    cmd->add_option("--board", a->board, "inner corners COLSxROWS")->capture_default_str();
-    cmd->add_option("--square", a->square_mm, "square side in mm")->capture_default_str();
-    cmd->add_option("--views", a->views, "views to capture")->capture_default_str();
-    cmd->add_option("--corner-method", a->corner_method, "saddle-fit or opencv-subpix")->capture_default_str();
-    cmd->add_flag("--fix-k3", a->fix_k3, "keep k3 = 0 (default: fixed when the free fit leaves it less certain than its value)");
-    cmd->add_flag("--free-k3", a->free_k3, "fit k3 whatever its uncertainty");
-    on_run(cmd, [common, a] {
-      run_step_command("intrinsics", *common, 0.0, {}, [a](CalibrateContext& c) { run_intrinsics(c, *a); });
-      return kExitOk;
-    });
-    (*runners)["intrinsics"] = [](CalibrateContext& c) { run_intrinsics(c, IntrinsicsArgs{}); };
-  }
-  {
-    auto common = std::make_shared<StepCommon>();
-    auto a = std::make_shared<DarkArgs>();
-    CLI::App* cmd = step_command("dark");
-    add_common(cmd, common.get(), "dark", true);
-    add_out(cmd, common.get(), "dark");
-    cmd->add_option("--hot-sigma", a->hot_sigma, "hot pixel threshold in robust standard deviations")->capture_default_str();
-    cmd->add_option("--frames", a->frames, "frames per exposure with --capture (at the bracket's shortest and longest)")
-        ->capture_default_str();
-    on_run(cmd, [common, a] {
-      run_step_command("dark", *common, 0.0, {}, [&](CalibrateContext& c) { run_dark(c, *a, common->input); });
-      return kExitOk;
-    });
-    (*runners)["dark"] = [](CalibrateContext& c) { run_dark(c, DarkArgs{}, StackInput{}); };
-  }
-  {
-    auto common = std::make_shared<StepCommon>();
-    auto a = std::make_shared<ResponseArgs>();
-    CLI::App* cmd = step_command("response");
-    add_common(cmd, common.get(), "response", true);
-    add_out(cmd, common.get(), "response");
-    cmd->add_option("--method", a->method, "robertson (default) or debevec (log domain; better for gamma-encoded images)");
-    cmd->add_option("--dark", a->dark, "dark.json: subtract the per-pixel dark level (default with --rig: its dark.json)");
-    cmd->add_option("--black", a->black, "black level (DN) subtracted when there is no dark frame");
-    cmd->add_option("--saturation", a->saturation, "raw value treated as saturated (default: detected)");
-    cmd->add_option("--floor", a->floor, "noise floor (DN above black) below which values carry no weight");
-    cmd->add_option("--knots", a->knots, "curve knots for 10..16-bit data (8-bit: one per value)")->capture_default_str();
-    cmd->add_option("--smoothness", a->smoothness, "curvature penalty (default: the method's)");
-    cmd->add_option("--no-data", a->no_data, "colour R,G,B (or one value) that marks pixels without data");
-    cmd->add_option("--count", a->count, "exposures to capture with --capture")->capture_default_str();
-    cmd->add_option("--angle", a->angle_deg, "table angle for --capture (deg; the LED lights the reference from the side)")
-        ->capture_default_str();
-    on_run(cmd, [common, a] {
-      run_step_command("response", *common, 0.0, {{calib::kDarkFile, a->dark}},
-                       [&](CalibrateContext& c) { run_response(c, *a, common->input); });
-      return kExitOk;
-    });
-    (*runners)["response"] = [](CalibrateContext& c) { run_response(c, ResponseArgs{}, StackInput{}); };
-  }
-  {
-    auto common = std::make_shared<StepCommon>();
-    auto a = std::make_shared<FlatArgs>();
-    CLI::App* cmd = step_command("flat");
-    add_common(cmd, common.get(), "flat", true);
-    add_out(cmd, common.get(), "flat");
-    cmd->add_option("--response", a->response, "response.json to linearise with (default with --rig: its response.json)");
-    cmd->add_option("--dark", a->dark, "dark.json to subtract (default with --rig: its dark.json)");
-    cmd->add_option("--frames", a->frames, "frames to capture with --capture (>= 2 also gives the conversion gain)")
-        ->capture_default_str();
-    on_run(cmd, [common, a] {
-      run_step_command("flat", *common, 0.0, {{calib::kDarkFile, a->dark}, {calib::kResponseFile, a->response}},
-                       [&](CalibrateContext& c) { run_flat(c, *a, common->input); });
-      return kExitOk;
-    });
-    (*runners)["flat"] = [](CalibrateContext& c) { run_flat(c, FlatArgs{}, StackInput{}); };
-  }
-  // sphere, light, scale: their help and default angles come from the procedure.
-  const std::pair<const char*, void (*)(CalibrateContext&, const std::string&)> geometric[] = {
-      {"sphere", &run_sphere}, {"light", &run_light}, {"scale", &run_scale}};
-  for (const auto& geo : geometric) {
-    const char* name = geo.first;
-    const auto run = geo.second;  // a plain variable: lambdas capture it (not a structured binding)
-    const std::string step = name, angles = calib::procedure_step(step).angles;
-    auto common = std::make_shared<StepCommon>();
-    auto chosen = std::make_shared<std::string>(angles);
-    auto albedo = std::make_shared<double>(0.0);
-    CLI::App* cmd = step_command(name);
-    add_common(cmd, common.get(), step, false);
-    cmd->get_option("--rig")->required();
-    cmd->add_option("--angles", *chosen, "table angles: a,b,c or START:STOP:STEP (deg)")->capture_default_str();
-    if (step == "scale")
-      cmd->add_option("--albedo", *albedo, "the reference sphere's certified albedo (simulated rigs: 0.99)");
-    on_run(cmd, [step, common, chosen, albedo, run] {
-      run_step_command(step, *common, *albedo, {}, [&](CalibrateContext& c) { run(c, *chosen); });
-      return kExitOk;
-    });
-    (*runners)[step] = [run, angles](CalibrateContext& c) { run(c, angles); };
+  auto [intrinsics, i] = add_step<IntrinsicsArgs>(group, *runners, "intrinsics", run_intrinsics);
+  intrinsics->get_option("--images")->description("chessboard photos or folders of them (8 or 16 bit)");
+  intrinsics->add_option("--board", i->board, "inner corners COLSxROWS")->capture_default_str();
+  intrinsics->add_option("--square", i->square_mm, "square side in mm")->capture_default_str();
+  intrinsics->add_option("--views", i->views, "views to capture")->capture_default_str();
+  intrinsics->add_option("--corner-method", i->corner_method, "saddle-fit or opencv-subpix")->capture_default_str();
+  intrinsics->add_flag("--fix-k3", i->fix_k3,
+                       "keep k3 = 0 (default: fixed when the free fit leaves it less certain than its value)");
+  intrinsics->add_flag("--free-k3", i->free_k3, "fit k3 whatever its uncertainty");
+
+  auto [dark, d] = add_step<DarkArgs>(group, *runners, "dark", run_dark);
+  dark->add_option("--hot-sigma", d->hot_sigma, "hot pixel threshold in robust standard deviations")->capture_default_str();
+  dark->add_option("--frames", d->frames, "frames per exposure with --capture (at the bracket's shortest and longest)")
+      ->capture_default_str();
+
+  auto [response, r] = add_step<ResponseArgs>(group, *runners, "response", run_response);
+  response->add_option("--method", r->method, "robertson (default) or debevec (log domain; better for gamma-encoded images)");
+  response->add_option("--dark", r->dark, "dark.json: subtract the per-pixel dark level (default with --rig: its dark.json)");
+  response->add_option("--black", r->black, "black level (DN) subtracted when there is no dark frame");
+  response->add_option("--saturation", r->saturation, "raw value treated as saturated (default: detected)");
+  response->add_option("--floor", r->floor, "noise floor (DN above black) below which values carry no weight");
+  response->add_option("--knots", r->knots, "curve knots for 10..16-bit data (8-bit: one per value)")->capture_default_str();
+  response->add_option("--smoothness", r->smoothness, "curvature penalty (default: the method's)");
+  response->add_option("--no-data", r->no_data, "colour R,G,B (or one value) that marks pixels without data");
+  response->add_option("--count", r->count, "exposures to capture with --capture")->capture_default_str();
+  response->add_option("--angle", r->angle_deg, "table angle for --capture (deg; the LED lights the reference from the side)")
+      ->capture_default_str();
+
+  auto [flat, f] = add_step<FlatArgs>(group, *runners, "flat", run_flat);
+  flat->add_option("--response", f->response, "response.json to linearise with (default with --rig: its response.json)");
+  flat->add_option("--dark", f->dark, "dark.json to subtract (default with --rig: its dark.json)");
+  flat->add_option("--frames", f->frames, "frames to capture with --capture (>= 2 also gives the conversion gain)")
+      ->capture_default_str();
+
+  for (auto [step, run] : {std::pair{"sphere", &run_sphere}, {"light", &run_light}, {"scale", &run_scale}}) {
+    GeometricArgs defaults;
+    defaults.angles = calib::procedure_step(step).angles;
+    auto [cmd, g] = add_step<GeometricArgs>(group, *runners, step, run, defaults);
+    cmd->add_option("--angles", g->angles, "table angles: a,b,c or START:STOP:STEP (deg)")->capture_default_str();
+    if (std::string(step) == "scale")
+      cmd->add_option("--albedo", g->albedo, "the reference sphere's certified albedo (simulated rigs: 0.99)");
   }
 
-  auto a = std::make_shared<StepCommon>();
-  auto images_dir = std::make_shared<std::string>();
-  auto albedo = std::make_shared<double>(0.0);
-  auto k3 = std::make_shared<std::pair<bool, bool>>(false, false);
-  CLI::App* cmd = group->add_subcommand("all", "Every calibration step in order (writes the whole calibration folder)");
-  cmd->add_option("--rig", a->rig, "rig.toml")->required();
-  cmd->add_option("--images", *images_dir, "folder with one subfolder per step (intrinsics/, dark/, response/, ...)");
-  cmd->add_flag("--capture", a->capture, "capture through the rig's devices");
-  cmd->add_option("--albedo", *albedo, "the reference sphere's certified albedo (simulated rigs: 0.99)");
-  cmd->add_flag("--fix-k3", k3->first, "intrinsics: keep k3 = 0 (default: fixed when the free fit leaves it less certain than its value)");
-  cmd->add_flag("--free-k3", k3->second, "intrinsics: fit k3 whatever its uncertainty");
-  on_run(cmd, [a, images_dir, albedo, k3, runners] {
-    const std::string& dir = *images_dir;
-    if (dir.empty() == !a->capture) throw UsageError("calibrate all: give either --images DIR or --capture");
-    if (k3->first && k3->second) throw UsageError("calibrate all: give --fix-k3 or --free-k3, not both");
-    std::vector<std::string> steps;
-    for (const calib::ProcedureStep& step : calib::calibration_procedure()) steps.push_back(step.name);
-    {
-      // Every file under DIR (one subfolder per step) is read.
-      fit::OutputGuard read;
-      std::error_code ec;
-      if (!dir.empty())
-        for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
-             it.increment(ec))
-          if (it->is_regular_file(ec)) read.input("--images", it->path());
-      check_step_outputs(read, a->rig, steps);
-    }
-    CalibrateContext c;
-    c.rig = load_rig(a->rig);
-    c.has_rig = true;
-    c.albedo = *albedo;
-    if (!dir.empty()) c.images_dir = fs::path(dir);
-    if (k3->first) c.k3 = "fix";
-    if (k3->second) c.k3 = "free";
-    std::unique_ptr<CalibSession> session;
-    if (a->capture) {
-      session = std::make_unique<CalibSession>(open_calib_session(c.rig, *albedo));
-      c.session = session.get();
-    }
-    for (const std::string& step : steps) {
-      say(fmt::format("== {} ==", step));
-      calib::require_step_inputs(c.rig.calibration_dir, step, c.rig.file);
-      runners->at(step)(c);
-    }
-    if (c.session) c.session->stage->mount(Target::Sample);
-    say("calibration done: run `paintlab check --rig " + a->rig + "` to see whether the rig is fit to measure");
-    return kExitOk;
-  });
+  auto [all, a] = add_command<AllArgs>(
+      group, "all", "Every calibration step in order (writes the whole calibration folder)",
+      [runners](const AllArgs& args) {
+        const std::string& dir = args.images_dir;
+        if (dir.empty() == !args.capture) throw UsageError("calibrate all: give either --images DIR or --capture");
+        if (args.fix_k3 && args.free_k3) throw UsageError("calibrate all: give --fix-k3 or --free-k3, not both");
+        std::vector<std::string> steps;
+        for (const calib::ProcedureStep& step : calib::calibration_procedure()) steps.push_back(step.name);
+        check_step_outputs(fit::OutputGuard().input_tree("--images", dir), args.rig, steps);  // every file under DIR
+        CalibrateContext c;
+        c.rig = load_rig(args.rig);
+        c.has_rig = true;
+        c.albedo = args.albedo;
+        if (!dir.empty()) c.images_dir = fs::path(dir);
+        c.k3 = args.fix_k3 ? "fix" : args.free_k3 ? "free" : "";
+        std::unique_ptr<CalibSession> session;
+        if (args.capture) {
+          session = std::make_unique<CalibSession>(open_calib_session(c.rig, args.albedo));
+          c.session = session.get();
+        }
+        for (const std::string& step : steps) {
+          say(fmt::format("== {} ==", step));
+          calib::require_step_inputs(c.rig.calibration_dir, step, c.rig.file);
+          runners->at(step)(c);
+        }
+        if (c.session) c.session->stage->mount(Target::Sample);
+        say("calibration done: run `paintlab check --rig " + args.rig + "` to see whether the rig is fit to measure");
+        return kExitOk;
+      });
+  all->add_option("--rig", a->rig, "rig.toml")->required();
+  all->add_option("--images", a->images_dir, "folder with one subfolder per step (intrinsics/, dark/, response/, ...)");
+  all->add_flag("--capture", a->capture, "capture through the rig's devices");
+  all->add_option("--albedo", a->albedo, "the reference sphere's certified albedo (simulated rigs: 0.99)");
+  all->add_flag("--fix-k3", a->fix_k3,
+                "intrinsics: keep k3 = 0 (default: fixed when the free fit leaves it less certain than its value)");
+  all->add_flag("--free-k3", a->free_k3, "intrinsics: fit k3 whatever its uncertainty");
 }
 
 }  // namespace paintlab::app

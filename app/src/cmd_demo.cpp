@@ -9,29 +9,18 @@
 // sphere, the LED, the response curve), prints a summary table and writes DIR/summary.json
 // in the shape of DESIGN.md's contract.
 #include <fmt/format.h>
-#include <signal.h>
 
 #include <chrono>
-#include <cmath>
-#include <csignal>
-#include <cstring>
-#include <stdexcept>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include "cli.h"
 #include "paintlab/fitting/output_guard.h"
 #include "paintlab/brdf/paint.h"
-#include "paintlab/calibration/record.h"
-#include "paintlab/calibration/response.h"
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/calibration/score.h"
 #include "paintlab/core/atomic_file.h"
-#include "paintlab/core/config.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/json.h"
-#include "paintlab/core/log.h"
 #include "paintlab/core/process.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/sim/builtin.h"
@@ -69,10 +58,7 @@ DemoPaint demo_paint(const std::string& file) {
     p.spec = sim::builtin_paint();
   } else {
     p.spec = brdf::load_paint_file(file);
-    std::ifstream in(file);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    p.toml_text = ss.str();
+    p.toml_text = read_file(file);
   }
   if (p.spec.merl()) throw UsageError("demo --paint: a MERL table cannot be simulated; give an analytic paint");
   return p;
@@ -118,22 +104,6 @@ std::string rgb(const Json& a) {
   std::string s;
   for (const auto& v : a) s += fmt::format("{}{:.4f}", s.empty() ? "" : " ", v.get<double>());
   return s;
-}
-
-// The paint as a camera with these channel weights sees it: Cook-Torrance is linear in kd
-// and ks (F, D, G do not depend on the channel), so a monochrome camera measures w . kd and
-// w . ks per lobe. Other models are returned unchanged.
-Json truth_seen_by_camera(const Json& truth, const std::array<double, 3>& w, bool mono) {
-  if (!mono || truth.value("model", "") != "cook-torrance") return truth;
-  Json t = truth;
-  auto project = [&](Json& rgb) {
-    const double v = w[0] * rgb[0].get<double>() + w[1] * rgb[1].get<double>() + w[2] * rgb[2].get<double>();
-    rgb = Json::array({v, v, v});
-  };
-  if (t.contains("kd")) project(t["kd"]);
-  if (t.contains("lobes"))
-    for (auto& l : t["lobes"]) project(l["ks"]);
-  return t;
 }
 
 void print_summary(const Json& s) {
@@ -243,23 +213,16 @@ int run_demo(const DemoArgs& a) {
   step({"measure", "--rig", R, "--sample", name, "--out", session.string(), "--sim-paint", paint_file.string(),
         "--notes", "paintlab demo"},
        t_measure, "the measurement");
-  // A fit that stops before converging exits 1 but writes fit.json ("converged": false):
-  // the demo goes on with it and says so in its summary (and exits 1 at the end).
-  {
-    const int rc = run_step({"fit", session.string(), "--model", "cook-torrance", "--lobes", std::to_string(lobes),
-                             "--name", name, "--max-iterations", std::to_string(a.max_iterations), "--out",
-                             fit_file.string()},
-                            t_fit);
-    bool written_unconverged = false;
-    if (rc == kExitFailed && fs::exists(fit_file)) {
-      const Json j = read_json_file(fit_file);
-      written_unconverged = j.contains("summary") && j["summary"].is_object() &&
-                            j["summary"].contains("converged") && j["summary"]["converged"] == false;
-    }
-    if (rc != 0 && !written_unconverged)
-      throw JobError(fmt::format("demo: the fit failed (exit {}); the files so far are in {}", rc, dir.string()));
-    if (written_unconverged) say("demo: the fit did not converge; going on with its last parameters (fit.json says so)");
-  }
+  // A fit that stops before converging exits 1 but writes fit.json ("converged": false; an
+  // earlier demo's fit.json is gone): the demo goes on with it, says so in its summary and
+  // exits 1 at the end.
+  const int fit_rc = run_step({"fit", session.string(), "--model", "cook-torrance", "--lobes", std::to_string(lobes),
+                               "--name", name, "--max-iterations", std::to_string(a.max_iterations), "--out",
+                               fit_file.string()},
+                              t_fit);
+  if (fit_rc != 0 && !(fit_rc == kExitFailed && fs::exists(fit_file)))
+    throw JobError(fmt::format("demo: the fit failed (exit {}); the files so far are in {}", fit_rc, dir.string()));
+  if (fit_rc != 0) say("demo: the fit did not converge; going on with its last parameters (fit.json says so)");
   step({"export", fit_file.string(), "--axf", axf.string()}, t_export, "the AxF-like export");
   step({"export", session.string(), "--merl", merl.string()}, t_export, "the MERL export");
   step({"axf", "validate", axf.string()}, t_export, "validating the AxF-like file");
@@ -274,7 +237,8 @@ int run_demo(const DemoArgs& a) {
   summary["paint"] = name;
   summary["truth"] = brdf::to_json(paint.spec);
   // Every camera format the rig supports is monochrome (devices/camera.h: Mono8/12/16).
-  summary["truth_seen_by_camera"] = truth_seen_by_camera(summary["truth"], truth.camera.mono_weights, true);
+  const auto& w = truth.camera.mono_weights;
+  summary["truth_seen_by_camera"] = brdf::to_json(brdf::seen_in_mono(paint.spec, brdf::Rgb(w[0], w[1], w[2])));
   summary["fit"] = fit;
   const Json& fit_summary = fit.contains("summary") && fit["summary"].is_object() ? fit["summary"] : Json::object();
   const bool fit_converged = fit_summary.value("converged", true);
@@ -302,11 +266,11 @@ int run_demo(const DemoArgs& a) {
 }  // namespace
 
 void register_demo_commands(CLI::App& app) {
-  auto a = std::make_shared<DemoArgs>();
-  CLI::App* d = app.add_subcommand(
-      "demo",
+  auto [d, a] = add_command<DemoArgs>(
+      &app, "demo",
       "The simulated rig end to end: calibrate, check, measure, fit, export, library, preview; prints a summary "
-      "(truth vs fit, calibration errors, timings) and writes DIR/summary.json");
+      "(truth vs fit, calibration errors, timings) and writes DIR/summary.json",
+      run_demo);
   d->add_option("--out", a->out, "Folder for everything the demo writes (new, or an earlier demo's)")->required();
   d->add_option("--paint", a->paint, "Paint file to measure (default: the built-in silver-metallic)");
   d->add_flag("--quick", a->quick, "Half resolution, light every 10 deg, 8 exposures (under 2 minutes)");
@@ -318,7 +282,6 @@ void register_demo_commands(CLI::App& app) {
                             "there is exported and summarised all the same, and the demo exits 1"),
               {"CtFitOptions::max_iterations"})
       ->capture_default_str();
-  on_run(d, [a] { return run_demo(*a); });
 }
 
 }  // namespace paintlab::app

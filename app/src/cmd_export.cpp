@@ -84,14 +84,14 @@ int run_validate(const std::vector<std::string>& files) {
 }  // namespace
 
 void register_export_commands(CLI::App& app) {
-  auto args = std::make_shared<ExportArgs>();
-  CLI::App* exp = app.add_subcommand(
-      "export",
+  auto [exp, args] = add_command<ExportArgs>(
+      &app, "export",
       "Export a measured paint: an AxF-like HDF5 file (docs/axf-like.md) and/or the measured, hole-filled MERL "
       ".binary table.\nINPUT is a session folder (binned and fitted here), or one or two paint files: fit.json "
       "(either model; two fits of one measurement are merged), .axf.h5 or paint .toml.\nExit 0 written, 1 the fit "
       "made here did not converge (the files are written all the same and record it; a paint file whose fit did "
-      "not converge is exported with a warning, exit 0), 2 bad input (nothing written).");
+      "not converge is exported with a warning, exit 0), 2 bad input (nothing written).",
+      run_export);
   exp->add_option("INPUT", args->inputs, "session folder, or fit.json / .axf.h5 / .toml (one or two)")->required();
   exp->add_option("--axf", args->axf, "AxF-like paint file to write (.axf.h5)");
   exp->add_option("--merl", args->merl, "MERL .binary to write (measured bins + hole filling)");
@@ -104,30 +104,21 @@ void register_export_commands(CLI::App& app) {
   exp->add_option("--name", args->name, "Paint name (default: the sample name or the fit's name)")->check(utf8_text());
   exp->add_option("--fit-out", args->fit_out, "Session only, with --axf: also write the fit as fit.json");
   exp->add_option("--seed", args->seed, "Seed of the fit's random starts")->capture_default_str();
-  sets_fields(exp->add_option("--threads", args->extract.threads, "Worker threads, 0 = all cores"),
-              {"ExtractionOptions::threads", "BinningOptions::threads", "CtFitOptions::threads"})
-      ->capture_default_str();
-  add_extract_options(exp, args->extract);
-  on_run(exp, [args] { return run_export(*args); });
+  add_extract_options(exp, args->extract, true);
 
   CLI::App* axf = subcommand_group(app, "axf", "AxF-like paint files (HDF5): check and inspect");
-  auto files = std::make_shared<std::vector<std::string>>();
-  CLI::App* validate = axf->add_subcommand(
-      "validate",
+  auto [validate, files] = add_command<std::vector<std::string>>(
+      axf, "validate",
       "Check every field, shape, range and convention of AxF-like files (or library files); every problem names "
-      "its field.\nExit 0 all valid, 1 a file is invalid (damaged, truncated, out of range), 2 bad usage.");
+      "its field.\nExit 0 all valid, 1 a file is invalid (damaged, truncated, out of range), 2 bad usage.",
+      run_validate);
   validate->add_option("FILE", *files, "AxF-like .axf.h5 or library .h5 files")->required();
-  on_run(validate, [files] { return run_validate(*files); });
-
-  auto show_file = std::make_shared<std::string>();
-  CLI::App* show = axf->add_subcommand("show", "Print what an AxF-like file holds: parameters, fit quality, provenance");
+  auto [show, show_file] = add_command<std::string>(
+      axf, "show", "Print what an AxF-like file holds: parameters, fit quality, provenance", [](const std::string& f) {
+        say(fit::describe_axf(fit::read_axf_file(f)));
+        return kExitOk;
+      });
   show->add_option("FILE", *show_file, "AxF-like .axf.h5")->required();
-  on_run(show, [show_file] {
-    std::string text = fit::describe_axf(fit::read_axf_file(*show_file));
-    while (!text.empty() && text.back() == '\n') text.pop_back();
-    say(text);
-    return kExitOk;
-  });
 }
 
 }  // namespace paintlab::app

@@ -73,9 +73,7 @@ int run_fit(const FitArgs& a) {
   const fit::FitOutcome outcome =
       fit::fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance, req, in.input);
   write_json_file(a.out, outcome.fit);
-  std::string report = outcome.report;
-  while (!report.empty() && report.back() == '\n') report.pop_back();
-  say(report);
+  say(outcome.report);
   if (!outcome.converged) {
     // Written anyway: the last parameters are often close, and fit.json says converged false.
     spdlog::warn("the {} fit did not converge: {}; {} is written with \"converged\": false (exit 1)",
@@ -115,9 +113,7 @@ int run_bin(const BinArgs& a) {
     throw DataError(fmt::format("{}: no sample landed in the table (every pixel invalid or grazing); nothing written",
                                 a.session));
   brdf::MerlTable& table = s.binned.table;
-  std::string described = fit::coverage(table).describe();
-  while (!described.empty() && described.back() == '\n') described.pop_back();
-  say(described);
+  say(fit::coverage(table).describe());
   if (a.fill) {
     const fit::HoleFillReport r = fit::fill_holes(table);
     say(fmt::format("filled {} bins from the phi_d mirror and {} by push-pull ({} below the horizon left empty)",
@@ -132,13 +128,13 @@ int run_bin(const BinArgs& a) {
 }  // namespace
 
 void register_fit_commands(CLI::App& app) {
-  auto args = std::make_shared<FitArgs>();
-  CLI::App* fit = app.add_subcommand(
-      "fit",
+  auto [fit, args] = add_command<FitArgs>(
+      &app, "fit",
       "Fit a paint model to a session (its HDR images are extracted and binned with the rig's calibration) or to a "
       "MERL .binary table, and write fit.json (parameters, standard deviations, residuals per region, solver "
       "summary). Exit 1 when the fit does not converge (fit.json is still written, with \"converged\": false and "
-      "the solver's termination), 2 on bad input (nothing is written then).");
+      "the solver's termination), 2 on bad input (nothing is written then).",
+      run_fit);
   fit->add_option("INPUT", args->input, "Session folder or MERL .binary table")->required();
   fit->add_option("--model", args->model, "Model to fit: cook-torrance or axf-carpaint")->capture_default_str();
   sets_fields(fit->add_option("--lobes", args->lobes, "Lobes (Cook-Torrance, or the car paint's achromatic lobes), 1..3"),
@@ -147,9 +143,6 @@ void register_fit_commands(CLI::App& app) {
   fit->add_option("--out", args->out, "fit.json to write")->required();
   fit->add_option("--name", args->name, "Paint name in fit.json (default: the session's sample, or the file name)")->check(utf8_text());
   fit->add_option("--seed", args->seed, "Seed of the random starts (the fit is deterministic for a seed)")
-      ->capture_default_str();
-  sets_fields(fit->add_option("--threads", args->extract.threads, "Worker threads, 0 = all cores"),
-              {"ExtractionOptions::threads", "BinningOptions::threads", "CtFitOptions::threads"})
       ->capture_default_str();
   sets_fields(fit->add_option("--max-iterations", args->max_iterations, "Iterations of the final solve"),
               {"CtFitOptions::max_iterations", "AxfFitOptions::max_iterations"})
@@ -163,26 +156,21 @@ void register_fit_commands(CLI::App& app) {
                   "Cook-Torrance residuals: log, or linear (weights from the neighbouring bins and the sparkle-aware "
                   "sample spread: unbiased for bin means under flake sparkle; see docs/fitting.md)")
       ->capture_default_str();
-  add_extract_options(fit, args->extract);
-  on_run(fit, [args] { return run_fit(*args); });
+  add_extract_options(fit, args->extract, true);
 
-  auto bargs = std::make_shared<BinArgs>();
-  CLI::App* bin = app.add_subcommand(
-      "bin",
+  auto [bin, bargs] = add_command<BinArgs>(
+      &app, "bin",
       "Extract the BRDF samples of a session's HDR images and bin them into a MERL .binary table (empty bins as "
       "-1) with a coverage map (EXR: count, state, valid, R, G, B per bin). Exit 2 on bad input; nothing is written "
-      "then.");
+      "then.",
+      run_bin);
   bin->add_option("SESSION", bargs->session, "Session folder")->required();
   bin->add_option("--out", bargs->out, "MERL .binary table to write")->required();
   bin->add_option("--coverage", bargs->coverage, "Coverage map to write (default: OUT's name with .coverage.exr)");
   bin->add_flag("--fill", bargs->fill,
                 "Fill the holes (phi_d mirror, then push-pull) before writing; the file cannot mark filled bins, "
                 "the coverage map's state channel does. Do not fit a filled table.");
-  sets_fields(bin->add_option("--threads", bargs->extract.threads, "Worker threads, 0 = all cores"),
-              {"ExtractionOptions::threads", "BinningOptions::threads"})
-      ->capture_default_str();
-  add_extract_options(bin, bargs->extract);
-  on_run(bin, [bargs] { return run_bin(*bargs); });
+  add_extract_options(bin, bargs->extract, false);
 }
 
 }  // namespace paintlab::app

@@ -65,9 +65,7 @@ int run_list(const LibraryArgs& a) {
 int run_show(const LibraryArgs& a) {
   const fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
   const fit::LibraryEntry e = lib.find(a.name);
-  std::string text = fit::describe_axf(lib.load(a.name));
-  while (!text.empty() && text.back() == '\n') text.pop_back();
-  say(text);
+  say(fit::describe_axf(lib.load(a.name)));
   say(fmt::format("  library file {} (sha256 {}), added {}", e.file, e.sha256, e.added_utc));
   return kExitOk;
 }
@@ -105,41 +103,33 @@ void register_library_commands(CLI::App& app) {
       app, "library",
       "Paint libraries: a folder of AxF-like files with index.json (docs/library.md). Changes are atomic: a crash "
       "leaves the old or the new index.");
-  auto args = std::make_shared<LibraryArgs>();
-  auto dir_option = [&](CLI::App* sub) {
-    sub->add_option("--dir", args->dir, "Library folder")->required();
+  // Every library command works on --dir.
+  auto command = [group](const char* name, const char* help, int (*run)(const LibraryArgs&)) {
+    const auto added = add_command<LibraryArgs>(group, name, help, run);
+    added.first->add_option("--dir", added.second->dir, "Library folder")->required();
+    return added;
   };
+  auto [add, a] = command(
+      "add", "Add a paint (an AxF-like .axf.h5, a fit.json or a paint .toml); creates the library if needed", run_add);
+  add->add_option("FILE", a->file, "paint to add")->required();
+  add->add_option("--name", a->name, "Name in the library (default: the paint's name)")->check(utf8_text());
+  add->add_flag("--replace", a->replace, "Replace a paint of the same name (refused otherwise)");
 
-  CLI::App* add = group->add_subcommand(
-      "add", "Add a paint (an AxF-like .axf.h5, a fit.json or a paint .toml); creates the library if needed");
-  dir_option(add);
-  add->add_option("FILE", args->file, "paint to add")->required();
-  add->add_option("--name", args->name, "Name in the library (default: the paint's name)")->check(utf8_text());
-  add->add_flag("--replace", args->replace, "Replace a paint of the same name (refused otherwise)");
-  on_run(add, [args] { return run_add(*args); });
+  auto [list, l] = command("list", "List the paints: name, date, model, fit residual", run_list);
+  list->add_flag("--json", l->json, "Print the index entries as JSON");
 
-  CLI::App* list = group->add_subcommand("list", "List the paints: name, date, model, fit residual");
-  dir_option(list);
-  list->add_flag("--json", args->json, "Print the index entries as JSON");
-  on_run(list, [args] { return run_list(*args); });
+  auto [show, s] = command("show", "Print one paint: parameters, standard deviations, fit quality, provenance", run_show);
+  show->add_option("NAME", s->name, "paint name")->required();
 
-  CLI::App* show = group->add_subcommand("show", "Print one paint: parameters, standard deviations, fit quality, provenance");
-  dir_option(show);
-  show->add_option("NAME", args->name, "paint name")->required();
-  on_run(show, [args] { return run_show(*args); });
+  auto [remove, r] = command("remove", "Remove a paint (the index first, then its file)", run_remove);
+  remove->add_option("NAME", r->name, "paint name")->required();
 
-  CLI::App* remove = group->add_subcommand("remove", "Remove a paint (the index first, then its file)");
-  dir_option(remove);
-  remove->add_option("NAME", args->name, "paint name")->required();
-  on_run(remove, [args] { return run_remove(*args); });
-
-  CLI::App* exp = group->add_subcommand(
-      "export", "Write the whole library as one HDF5 file (--h5) or as a folder of AxF-like files (--folder)");
-  dir_option(exp);
-  exp->add_option("--h5", args->h5, "One HDF5 file with every paint under /paints/<name>");
-  exp->add_option("--folder", args->folder, "A folder of <name>.axf.h5 files");
-  exp->add_flag("--overwrite", args->overwrite, "--folder: replace existing files");
-  on_run(exp, [args] { return run_export(*args); });
+  auto [exp, e] = command(
+      "export", "Write the whole library as one HDF5 file (--h5) or as a folder of AxF-like files (--folder)",
+      run_export);
+  exp->add_option("--h5", e->h5, "One HDF5 file with every paint under /paints/<name>");
+  exp->add_option("--folder", e->folder, "A folder of <name>.axf.h5 files");
+  exp->add_flag("--overwrite", e->overwrite, "--folder: replace existing files");
 }
 
 }  // namespace paintlab::app

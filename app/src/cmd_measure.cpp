@@ -129,7 +129,7 @@ int run_measure(const MeasureArgs& a) {
                   session->dir().string()));
   acq::RunSummary s = runner.run(StopSignals::requested());
   progress.finish();
-  print_run_summary(s, *session);
+  say(s.describe(session->dir()));
   if (s.complete) return kExitOk;
   return kExitFailed;
 }
@@ -137,12 +137,12 @@ int run_measure(const MeasureArgs& a) {
 }  // namespace
 
 void register_measure_commands(CLI::App& app) {
-  auto a = std::make_shared<MeasureArgs>();
-  CLI::App* m = app.add_subcommand(
-      "measure",
+  auto [m, a] = add_command<MeasureArgs>(
+      &app, "measure",
       "Measure a sample: sweep the light, capture exposure brackets, merge them into HDR images.\n"
       "Writes DIR/session.json, DIR/journal.jsonl and DIR/hdr/pos_XXX.exr. Ctrl-C stops safely\n"
-      "(LED off, table stopped); `paintlab measure --resume DIR` continues where it stopped.");
+      "(LED off, table stopped); `paintlab measure --resume DIR` continues where it stopped.",
+      run_measure);
   m->add_option("--rig", a->rig, "rig.toml (for --resume: overrides the rig file recorded in the session)");
   m->add_option("--sample", a->sample, "sample name (recorded in the session)")->check(utf8_text());
   m->add_option("--out", a->out, "session folder to create (must be new or empty)");
@@ -158,7 +158,6 @@ void register_measure_commands(CLI::App& app) {
   m->add_option("--sim-paint", a->sim_paint, "simulated rig only: paint .toml on the simulated sphere (default: the built-in silver metallic)");
   m->add_option("--max-retries", a->max_retries, "retries of a failed device operation before stopping safely")
       ->check(CLI::Range(0, 20));
-  on_run(m, [a] { return run_measure(*a); });
 }
 
 }  // namespace paintlab::app

@@ -95,10 +95,10 @@ int run_render(const RenderArgs& a) {
 
 void register_sim_commands(CLI::App& app) {
   CLI::App* sim = subcommand_group(app, "sim", "The simulated rig: render what its camera sees, serve simulated devices");
-  auto args = std::make_shared<RenderArgs>();
-  CLI::App* render = sim->add_subcommand(
-      "render",
-      "Render the simulated camera's view: scene radiance as EXR, or one exposure as a 16-bit PNG of raw values");
+  auto [render, args] = add_command<RenderArgs>(
+      sim, "render",
+      "Render the simulated camera's view: scene radiance as EXR, or one exposure as a 16-bit PNG of raw values",
+      run_render);
   render->add_option("--rig", args->rig, "rig.toml with the simulated world ([geometry] and [sim])")->required();
   render->add_option("--paint", args->paint, "paint .toml on the sphere (scene sphere)");
   render->add_option("--angle", args->angle_deg, "table angle, deg (the LED position)");
@@ -114,7 +114,6 @@ void register_sim_commands(CLI::App& app) {
   render->add_flag("--rgb", args->rgb, "colour output (default: the monochrome camera's mix)");
   render->add_flag("--no-sparkle", args->no_sparkle, "the smooth BRDF without flake glints");
   render->add_flag("--led-off", args->led_off, "LED switched off");
-  on_run(render, [args] { return run_render(*args); });
 }
 
 }  // namespace paintlab::app

@@ -9,7 +9,10 @@
 
 namespace paintlab::app {
 
-void add_extract_options(CLI::App* sub, ExtractArgs& a) {
+void add_extract_options(CLI::App* sub, ExtractArgs& a, bool fits) {
+  CLI::Option* threads = sub->add_option("--threads", a.threads, "Worker threads, 0 = all cores")->capture_default_str();
+  if (fits) sets_fields(threads, {"ExtractionOptions::threads", "BinningOptions::threads", "CtFitOptions::threads"});
+  else sets_fields(threads, {"ExtractionOptions::threads", "BinningOptions::threads"});
   sub->add_option("--calib", a.calib,
                   "Calibration folder (default: the calibration folder of the rig file the session names)");
   sets_fields(sub->add_option("--margin-px", a.margin_px, "Sphere pixels used: at least this far inside the silhouette"),

@@ -15,9 +15,9 @@ struct ExtractArgs {
   std::string estimator = fit::to_string(fit::BinningOptions{}.estimator);
   int threads = 0;
 };
-// Adds --calib, --margin-px, --variance and --estimator (not --threads: each command says
-// what its threads do).
-void add_extract_options(CLI::App* sub, ExtractArgs& a);
+// Adds --calib, --margin-px, --variance, --estimator and --threads (`fits`: the command fits
+// too, and its threads are the fit's as well).
+void add_extract_options(CLI::App* sub, ExtractArgs& a, bool fits);
 // The options the flags give (fit::bin_session checks them); DataError naming the flag.
 fit::SessionBinOptions bin_options(const ExtractArgs& a);
 

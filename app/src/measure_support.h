@@ -1,6 +1,6 @@
 #pragma once
 // What `paintlab measure` (and the demo) add to acquisition/measurement.h: the simulated
-// paint on a sim rig, and the final report.
+// paint on a sim rig.
 #include <filesystem>
 #include <string>
 
@@ -15,9 +15,5 @@ namespace paintlab::app {
 // built-in silver metallic when `paint_file` is empty.
 Json load_sim_paint_json(const std::string& paint_file);
 void apply_sim_paint(RigDevices& devices, const Json& paint_json, const std::filesystem::path& where);
-
-// Prints the final summary: positions, timing against the physical minimum, retries,
-// adaptive savings, and how to resume when the run did not finish.
-void print_run_summary(const acq::RunSummary& s, const acq::SessionDir& session);
 
 }  // namespace paintlab::app

@@ -409,6 +409,15 @@ std::string to_toml(const PaintSpec& spec) {
   return s + tail;
 }
 
+PaintSpec seen_in_mono(PaintSpec p, const Rgb& w) {
+  if (auto* ct = std::get_if<CookTorranceParams>(&p.params)) {
+    auto project = [&](Rgb& rgb) { rgb = Rgb::Constant((w * rgb).sum()); };
+    project(ct->kd);
+    for (CtLobe& l : ct->lobes) project(l.ks);
+  }
+  return p;
+}
+
 Json to_json(const PaintSpec& spec) {
   Json j;
   j["name"] = spec.name;

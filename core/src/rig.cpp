@@ -180,6 +180,27 @@ bool RigConfig::all_simulated() const {
   return turntable.kind == "sim" && light.kind == "sim" && camera.kind == "sim";
 }
 
+std::string RigConfig::describe() const {
+  const auto& g = geometry;
+  const auto& p = plan;
+  std::string s = fmt::format("rig '{}' ({}): valid\n", name, file.string());
+  s += fmt::format("  calibration folder  {}\n", calibration_dir.string());
+  s += fmt::format("  turntable           {}\n  light               {}\n  camera              {}\n", turntable.kind,
+                   light.kind, camera.kind);
+  s += fmt::format("  sphere radius       {:.2f} mm\n", g.sphere_radius_m * 1e3);
+  s += fmt::format("  arm                 radius {:.1f} mm, height {:.1f} mm, zero {:.2f} deg\n", g.arm_radius_m * 1e3,
+                   g.arm_height_m * 1e3, g.arm_zero_deg);
+  s += fmt::format("  camera              {:.1f} mm away, {:.1f} mm up, f {:.1f} mm, {}x{} px of {:.2f} um\n",
+                   g.camera_distance_m * 1e3, g.camera_height_m * 1e3, g.focal_length_mm, g.image_width_px,
+                   g.image_height_px, g.pixel_size_um);
+  s += fmt::format("  light angles        {} positions, {:g} to {:g} deg in {:g} deg steps\n", p.angles_deg().size(),
+                   p.angle_start_deg, p.angle_stop_deg, p.angle_step_deg);
+  s += fmt::format("  exposure bracket    {} exposures, {:.4g} ms to {:.4g} ms\n", p.exposures_s.size(),
+                   p.exposures_s.front() * 1e3, p.exposures_s.back() * 1e3);
+  if (sim) s += "  simulator           [sim] valid\n";
+  return s;
+}
+
 Json RigConfig::to_json() const {
   const auto& g = geometry;
   const auto& p = plan;

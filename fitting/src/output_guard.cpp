@@ -37,6 +37,15 @@ OutputGuard& OutputGuard::inputs(const std::string& flag, const std::vector<fs::
   return *this;
 }
 
+OutputGuard& OutputGuard::input_tree(const std::string& flag, const fs::path& folder) {
+  std::error_code ec;
+  if (folder.empty() || !fs::is_directory(folder, ec)) return *this;
+  for (auto it = fs::recursive_directory_iterator(folder, ec); !ec && it != fs::recursive_directory_iterator();
+       it.increment(ec))
+    if (it->is_regular_file(ec)) input(flag, it->path());
+  return *this;
+}
+
 OutputGuard& OutputGuard::output(OutputSpec out, const std::optional<fs::path>& owned) {
   if (!out.path.empty()) outputs_.emplace_back(std::move(out), owned);
   return *this;

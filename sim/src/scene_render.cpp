@@ -23,14 +23,14 @@ constexpr EnumNames<SceneKind, 6> kSceneNames{{
     {SceneKind::Dark, "dark"},
 }};
 
-// A board at view q.view (pose v of v + 1 with the world's seed), lit so that its white
+// A board at view q.view (pose v of q.views, or of v + 1, with the world's seed), lit so that its white
 // reaches half the full well at the image centre in q.exposure_s.
 template <class Board, class Poses, class Render>
 ImageF render_board(SimWorld& world, const SceneRequest& q, const Board& board, Poses poses_of, Render render) {
-  const auto poses = poses_of(world.camera(), board, q.view + 1, world.config().seed);
+  const auto poses = poses_of(world.camera(), board, q.views > 0 ? q.views : q.view + 1, world.config().seed);
   PlaneLighting light;
   light.irradiance_w_m2 = world.irradiance_for_fill(0.5, q.exposure_s, board.white_albedo);
-  return render(world.camera(), board, poses.back(), light, 16, q.channels, q.threads);
+  return render(world.camera(), board, poses.at(static_cast<std::size_t>(q.view)), light, 16, q.channels, q.threads);
 }
 
 }  // namespace
@@ -45,6 +45,12 @@ void SceneRequest::check() const {
   if (!std::isfinite(angle_deg)) throw UsageError(fmt::format("scene angle_deg {}: must be finite", angle_deg));
   if (!(albedo >= 0 && albedo <= 1)) throw UsageError(fmt::format("scene albedo {}: must be in [0, 1]", albedo));
   if (view < 0 || view > 99) throw UsageError(fmt::format("scene view {}: must be in 0..99", view));
+  if (views != 0 && (views <= view || views > 100))
+    throw UsageError(fmt::format("scene views {}: must be 0 or in {}..100 (more than view {})", views, view + 1, view));
+  if (chessboard.cols < 2 || chessboard.rows < 2 || !(chessboard.square_m > 0))
+    throw UsageError(fmt::format("scene chessboard {}x{} of {} m squares: needs at least 2x2 inner corners and a "
+                                 "square > 0",
+                                 chessboard.cols, chessboard.rows, chessboard.square_m));
   if (!(exposure_s > 0) || !std::isfinite(exposure_s))
     throw UsageError(fmt::format("scene exposure_s {}: must be > 0", exposure_s));
   if (channels != 1 && channels != 3) throw UsageError(fmt::format("scene channels {}: must be 1 or 3", channels));
@@ -71,7 +77,7 @@ SceneRender render_scene(SimWorld& world, const SceneRequest& q) {
                                     q.angle_deg, q.led_on ? "" : ", LED off");
       break;
     case SceneKind::Chessboard: {
-      const Chessboard board;
+      const Chessboard& board = q.chessboard;
       out.radiance = render_board(world, q, board, chessboard_poses, render_chessboard);
       out.description = fmt::format("{}x{} chessboard of {:g} mm squares, view {}", board.cols, board.rows,
                                     board.square_m * 1e3, q.view);

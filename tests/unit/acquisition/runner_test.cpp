@@ -131,6 +131,13 @@ TEST(Runner, InterruptStopsSafelyAndResumeCompletes) {
     EXPECT_FALSE(rig.light.state) << "LED left on";
     EXPECT_GE(rig.table.stops, 1);
     EXPECT_EQ(sum.measured, 3);
+    // What `paintlab measure` prints: how far it got and the command that goes on.
+    const std::string said = sum.describe(s.dir());
+    EXPECT_THAT(said, HasSubstr("positions: 3 of 7 finished (3 in this run, 0 before)\n"));
+    EXPECT_THAT(said, HasSubstr("stopped safely (interrupted): the LED is off, the table stopped, 3 positions are "
+                                "journaled."));
+    EXPECT_THAT(said, HasSubstr("resume with: paintlab measure --resume " + s.dir().string() + "\n"));
+    EXPECT_THAT(said, HasSubstr("physical minimum"));
   }
   SessionState st = s.inspect();
   EXPECT_EQ(st.finished_count(), 3);
@@ -143,6 +150,10 @@ TEST(Runner, InterruptStopsSafelyAndResumeCompletes) {
   EXPECT_EQ(sum2.measured, 4);
   expect_complete(s);
   EXPECT_EQ(s.journal().read().size(), 7u) << "no duplicate journal entries";
+  const std::string said = sum2.describe(s.dir());
+  EXPECT_THAT(said, HasSubstr("positions: 7 of 7 finished (4 in this run, 3 before)\n"));
+  EXPECT_THAT(said, HasSubstr("session complete: " + s.dir().string() + "\n"));
+  EXPECT_THAT(said, ::testing::Not(HasSubstr("resume with")));
 }
 
 TEST(Runner, RetryableCameraFaultIsRetried) {

@@ -87,6 +87,23 @@ TEST(PaintFile, ParsesTheContractExample) {
   EXPECT_EQ(s.flakes->lobes, (std::vector<int>{0}));  // every lobe but the narrowest
 }
 
+// The demo's truth for a monochrome camera: w . kd and w . ks in every channel, the rest
+// of the paint as it was.
+TEST(PaintFile, AMonochromeCameraSeesTheChannelWeightedKdAndKs) {
+  const PaintSpec s = parse_paint(ConfigTable::parse_string(kGoodCt, "p.toml"));
+  const Rgb w(0.25, 0.5, 0.25);
+  const PaintSpec mono = seen_in_mono(s, w);
+  const double kd = 0.25 * 0.05 + 0.5 * 0.06 + 0.25 * 0.07;
+  EXPECT_THAT(mono.cook_torrance()->kd, test::RgbNear(Rgb::Constant(kd), 1e-15));
+  for (std::size_t l = 0; l < 2; ++l) {
+    const Rgb& ks = s.cook_torrance()->lobes[l].ks;
+    EXPECT_THAT(mono.cook_torrance()->lobes[l].ks, test::RgbNear(Rgb::Constant((w * ks).sum()), 1e-15)) << l;
+    EXPECT_EQ(mono.cook_torrance()->lobes[l].m, s.cook_torrance()->lobes[l].m);
+  }
+  EXPECT_EQ(mono.flakes, s.flakes);
+  EXPECT_EQ(mono.name, s.name);
+}
+
 TEST(PaintFile, TomlRoundTripForEveryModel) {
   test::TempDir d;
   std::vector<PaintSpec> specs;

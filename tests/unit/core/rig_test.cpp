@@ -52,6 +52,21 @@ TEST(Rig, MinimalParses) {
   EXPECT_DOUBLE_EQ(r.geometry.arm_height_m, 0.0);
 }
 
+// What `paintlab rig validate` prints, in the units a technician reads.
+TEST(Rig, DescribeGivesDevicesGeometryInMmAndTheBracketInMs) {
+  const RigConfig r = RigConfig::parse(ConfigTable::parse_string(kMinimal, "rig.toml"), "/lab/rig.toml");
+  const std::string d = r.describe();
+  EXPECT_THAT(d, HasSubstr("rig 'r1' (/lab/rig.toml): valid\n"));
+  EXPECT_THAT(d, HasSubstr("calibration folder  /lab/calib\n"));
+  EXPECT_THAT(d, HasSubstr("turntable           sim\n"));
+  EXPECT_THAT(d, HasSubstr("sphere radius       40.00 mm\n"));
+  EXPECT_THAT(d, HasSubstr("arm                 radius 600.0 mm, height 0.0 mm"));
+  EXPECT_THAT(d, HasSubstr("1200.0 mm away"));
+  EXPECT_THAT(d, HasSubstr("181 positions, 0 to 180 deg in 1 deg steps\n"));
+  EXPECT_THAT(d, HasSubstr("3 exposures, 0.25 ms to 4 ms\n"));
+  EXPECT_THAT(d, ::testing::Not(HasSubstr("[sim]")));
+}
+
 TEST(Rig, RejectsUnknownKey) {
   std::string t = std::string(kMinimal) + "colour = 3\n";
   EXPECT_THAT(error_of(t), HasSubstr("key 'plan.colour': unknown key in [plan]"));

@@ -18,12 +18,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string guard_error(const fit::OutputGuard& g) {
-  try {
-    g.check();
-  } catch (const UsageError& e) {
-    return e.what();
-  }
-  return "no error";
+  return test::error_message<UsageError>([&] { g.check(); });
 }
 
 }  // namespace
@@ -64,11 +59,32 @@ TEST(OutputGuard, AnOutputInsideASessionOrLibraryOrOverAnInputIsRefusedByItsFlag
   // The library the command owns (library add --dir) may be written.
   fit::OutputGuard owner;
   owner.output({"--dir", tmp / "library" / "x.axf.h5"}, tmp / "library");
-  EXPECT_EQ(guard_error(owner), "no error");
+  EXPECT_EQ(guard_error(owner), "(no error)");
   // Empty paths are left out.
   fit::OutputGuard empty;
   empty.input("--calib", "").output({"--hdr", ""});
-  EXPECT_EQ(guard_error(empty), "no error");
+  EXPECT_EQ(guard_error(empty), "(no error)");
+}
+
+// `check --images DIR` and `calibrate all --images DIR` read every file below DIR.
+TEST(OutputGuard, EveryFileBelowAnEvidenceFolderIsAnInput) {
+  test::TempDir tmp;
+  test::write_text(tmp / "evidence" / "sphere" / "a.png", "x");
+  test::write_text(tmp / "evidence" / "exposures.txt", "a.png 0.01\n");
+  fit::OutputGuard deep;
+  deep.input_tree("--images", tmp / "evidence").output({"--out", tmp / "evidence" / "sphere" / "a.png"});
+  EXPECT_THAT(guard_error(deep), HasSubstr("--images"));
+  fit::OutputGuard top;
+  top.input_tree("--images", tmp / "evidence").output({"--out", tmp / "evidence" / "exposures.txt"});
+  EXPECT_THAT(guard_error(top), HasSubstr("--images"));
+  fit::OutputGuard beside;
+  beside.input_tree("--images", tmp / "evidence").output({"--out", tmp / "evidence" / "new.json"});
+  EXPECT_EQ(guard_error(beside), "(no error)");
+  // No folder, or a file, adds nothing.
+  fit::OutputGuard none;
+  none.input_tree("--images", "").input_tree("--images", tmp / "missing").input_tree("--images", tmp / "evidence" / "exposures.txt");
+  none.output({"--out", tmp / "evidence" / "exposures.txt"});
+  EXPECT_EQ(guard_error(none), "(no error)");
 }
 
 TEST(OutputGuard, WhatAFitWasFittedToIsAnInputOfItsExport) {

@@ -89,6 +89,30 @@ TEST(SceneRender, BoardViewsDifferAndRepeat) {
   EXPECT_EQ(sim::render_scene(world, q).radiance.values(), v1.radiance.values());
 }
 
+// The calibration stage shows view i of the N the procedure takes, of the board it names:
+// pose i of chessboard_poses(N), and the board's own corner count in the description.
+TEST(SceneRender, ABoardViewOfASetIsThatSetsPoseOfTheGivenBoard) {
+  sim::SimWorld world(sim::test::small_config());
+  sim::SceneRequest q;
+  q.kind = sim::SceneKind::Chessboard;
+  q.chessboard.cols = 7;
+  q.chessboard.rows = 5;
+  q.chessboard.square_m = 0.015;
+  q.view = 2;
+  q.views = 6;
+  const sim::SceneRender r = sim::render_scene(world, q);
+  EXPECT_THAT(r.description, HasSubstr("7x5 chessboard of 15 mm squares, view 2"));
+  const auto poses = sim::chessboard_poses(world.camera(), q.chessboard, 6, world.config().seed);
+  sim::PlaneLighting light;
+  light.irradiance_w_m2 = world.irradiance_for_fill(0.5, q.exposure_s, q.chessboard.white_albedo);
+  EXPECT_EQ(r.radiance.values(), sim::render_chessboard(world.camera(), q.chessboard, poses[2], light, 16, 1, 0).values());
+  q.views = 2;  // fewer views than the one asked for
+  EXPECT_THAT(test::error_message<UsageError>([&] { sim::render_scene(world, q); }), HasSubstr("scene views 2"));
+  q.views = 0;
+  q.chessboard.cols = 1;
+  EXPECT_THAT(test::error_message<UsageError>([&] { sim::render_scene(world, q); }), HasSubstr("scene chessboard 1x5"));
+}
+
 TEST(SceneRender, BadRequestsAreRefusedNamingTheField) {
   sim::SimWorld world(sim::test::small_config());
   sim::SceneRequest q;

@@ -6,6 +6,7 @@
 // position overlaps merging of the previous one through a bounded queue.
 // The runner sees only the device interfaces (devices/*.h) and a Clock.
 #include <atomic>
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
@@ -76,6 +77,11 @@ struct RunSummary {
   int retries = 0;
   int skipped_frames = 0;       // adaptive bracketing
   double skipped_s = 0.0;       // exposure + readout time saved by adaptive bracketing
+
+  // What `paintlab measure` prints at the end: positions finished, what resume found, the
+  // sweep time against its physical minimum, frames and retries, adaptive savings, then
+  // "session complete: DIR" or how it stopped and the command that resumes it.
+  std::string describe(const std::filesystem::path& session_dir) const;
 };
 
 class Runner {

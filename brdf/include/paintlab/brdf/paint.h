@@ -65,6 +65,11 @@ struct PaintSpec {
   bool operator==(const PaintSpec& o) const { return name == o.name && params == o.params && flakes == o.flakes; }
 };
 
+// The paint as a monochrome camera with channel weights `w` (linear RGB to its one channel)
+// sees it: Cook-Torrance is linear in kd and ks (F, D, G do not depend on the channel), so
+// each becomes w . rgb in all three channels. Other models are returned unchanged.
+PaintSpec seen_in_mono(PaintSpec p, const Rgb& w);
+
 // The model names a paint file may use.
 const std::vector<std::string>& paint_models();
 

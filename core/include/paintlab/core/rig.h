@@ -95,6 +95,10 @@ struct RigConfig {
   // Whether every device is simulated.
   bool all_simulated() const;
   Json to_json() const;
+  // What `paintlab rig validate` prints: "rig 'NAME' (FILE): valid", then one line each for
+  // the calibration folder, the devices' kinds, the geometry (mm, deg, px), the light angles
+  // and the exposure bracket (ms).
+  std::string describe() const;
 };
 
 // Builds a geometric bracket of `count` exposures from min_s to max_s.

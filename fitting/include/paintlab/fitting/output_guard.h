@@ -22,6 +22,9 @@ class OutputGuard {
   // What the command reads (empty paths are left out).
   OutputGuard& input(const std::string& flag, const std::filesystem::path& path);
   OutputGuard& inputs(const std::string& flag, const std::vector<std::filesystem::path>& paths);
+  // Every regular file below `folder` (a folder of evidence a command reads); nothing when
+  // `folder` is empty or not a folder.
+  OutputGuard& input_tree(const std::string& flag, const std::filesystem::path& folder);
   // What it writes (an empty path is left out). `owned`: the folder the command itself owns
   // and may write into (library add's --dir): it is not protected against this output.
   OutputGuard& output(OutputSpec out, const std::optional<std::filesystem::path>& owned = std::nullopt);

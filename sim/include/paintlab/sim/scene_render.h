@@ -8,6 +8,7 @@
 
 #include "paintlab/core/image.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/sim/scenes.h"
 #include "paintlab/sim/sensor.h"
 #include "paintlab/sim/world.h"
 
@@ -24,6 +25,8 @@ struct SceneRequest {
   bool led_on = true;       // sphere, white
   double albedo = 0.99;     // the white reference's
   int view = 0;             // which generated board pose (chessboard, charuco): 0, 1, ...
+  int views = 0;            // boards: poses generated for this many views (0: view + 1)
+  Chessboard chessboard;    // the chessboard's corners and squares
   // The exposure the lighting is set for: a board's white and the uniform field reach half
   // the full well at the image centre in this time.
   double exposure_s = 0.01;
@@ -52,7 +55,8 @@ struct SceneFrame {
 SceneFrame expose_scene(SimWorld& world, const SceneRender& scene, const ExposureSettings& settings, int threads = 0);
 
 // The scene in `world` (the sphere scene shows the world's paint). Boards come from
-// chessboard_poses/charuco_poses with the world's seed: view v is pose v of v + 1.
+// chessboard_poses/charuco_poses with the world's seed: view v is pose v of `views` (of v + 1
+// when views is 0).
 SceneRender render_scene(SimWorld& world, const SceneRequest& request);
 
 }  // namespace paintlab::sim
