@@ -94,3 +94,15 @@ function(paintlab_add_bench name)
   add_executable(bench_${name} ${ARG_SOURCES})
   target_link_libraries(bench_${name} PRIVATE ${ARG_DEPS} benchmark::benchmark paintlab_warnings)
 endfunction()
+
+# add_subdirectory() for every folder below the current source folder that has a
+# CMakeLists.txt (tests/integration/<area>, tests/e2e/<area>, bench/<module>); a new folder
+# is picked up at the next configure.
+function(paintlab_add_subfolders)
+  file(GLOB _folders LIST_DIRECTORIES true CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*)
+  foreach(folder ${_folders})
+    if(IS_DIRECTORY ${folder} AND EXISTS ${folder}/CMakeLists.txt)
+      add_subdirectory(${folder})
+    endif()
+  endforeach()
+endfunction()

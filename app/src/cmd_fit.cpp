@@ -33,11 +33,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string stats_line(const fit::ExtractionStats& s, const brdf::MerlTable& t) {
-  return fmt::format("{} images: {} samples ({} invalid, {} grazing pixels skipped) in {} measured bins", s.images,
-                     s.samples, s.invalid, s.grazing, t.count_in_state(brdf::BinState::Measured));
-}
-
 struct FitArgs {
   std::string input;
   std::string model = "cook-torrance";
@@ -65,7 +60,7 @@ int run_fit(const FitArgs& a) {
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
   fit::OutputGuard().input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out}).check();
   const fit::FitInput in = fit::load_fit_input(input, bin_options(a.extract));
-  if (in.stats) say(stats_line(*in.stats, in.table));
+  if (in.stats) say(in.stats->describe(in.table.count_in_state(brdf::BinState::Measured)));
   for (const std::string& w : in.warnings) spdlog::warn("{}", w);
   req.name = fit::paint_name_from(a.name.empty() ? in.sample : a.name);
   spdlog::info("fitting {} ({} measured bins)", fit::to_string(req.model),
@@ -94,11 +89,8 @@ struct BinArgs {
 };
 
 int run_bin(const BinArgs& a) {
-  const fs::path dir(a.session);
-  if (!fs::exists(dir)) throw IoError(a.session, "no such folder");
-  if (!fs::is_directory(dir) || !fs::exists(dir / "session.json"))
-    throw UsageError(fmt::format("{}: not a session folder (no session.json)", a.session));
-  const fs::path out(a.out);
+  const acq::SessionDir session = acq::SessionDir::open(a.session);  // DataError: not a session folder
+  const fs::path dir(a.session), out(a.out);
   fs::path cov(a.coverage);
   OutputSpec cov_spec("--coverage", cov);
   if (cov.empty()) {
@@ -107,8 +99,8 @@ int run_bin(const BinArgs& a) {
     cov_spec.beside = out;
   }
   fit::OutputGuard().input("SESSION", dir).input("--calib", a.extract.calib).output({"--out", out}).output(cov_spec).check();
-  fit::BinnedSession s = fit::bin_session(acq::SessionDir::open(dir), bin_options(a.extract));
-  say(stats_line(s.stats, s.binned.table));
+  fit::BinnedSession s = fit::bin_session(session, bin_options(a.extract));
+  say(s.stats.describe(s.binned.table.count_in_state(brdf::BinState::Measured)));
   if (s.binned.table.count_in_state(brdf::BinState::Measured) == 0)
     throw DataError(fmt::format("{}: no sample landed in the table (every pixel invalid or grazing); nothing written",
                                 a.session));

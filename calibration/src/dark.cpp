@@ -212,11 +212,8 @@ DarkFrame DarkFrame::load(const fs::path& json_path) {
   const MapRecord rec = read_map_record(json_path);
   const Json& j = rec.json;
   const std::string& where = rec.where;
-  const int W = rec.width, H = rec.height, C = rec.channels;
   DarkFrame d;
-  d.provenance = rec.provenance;
-  d.frame_count = rec.frame_count;
-  d.exposures_s = rec.exposures_s;
+  rec.fill(d);
   d.bit_depth = json_get<int>(j, "bit_depth", where);
   d.mean_bias_dn = json_get<double>(j, "mean_bias_dn", where);
   d.mean_rate_dn_per_s = json_get<double>(j, "mean_rate_dn_per_s", where);
@@ -224,13 +221,10 @@ DarkFrame DarkFrame::load(const fs::path& json_path) {
     d.read_noise_dn = json_get<double>(j, "read_noise_dn", where);
     d.read_noise_measured = true;
   }
-  const ExrImage maps = read_map_file(json_path, j, W, H);
-  d.bias_dn = ImageF(W, H, C);
-  d.rate_dn_per_s = ImageF(W, H, C);
-  d.hot = ImageU8(W, H, 1);
-  read_map_planes(maps, "bias", d.bias_dn);
-  read_map_planes(maps, "rate", d.rate_dn_per_s);
-  const ImageF& h = maps.plane("hot");
+  d.bias_dn = rec.map("bias");
+  d.rate_dn_per_s = rec.map("rate");
+  d.hot = ImageU8(rec.width, rec.height, 1);
+  const ImageF& h = rec.maps.plane("hot");
   for (std::size_t p = 0; p < h.size(); ++p) {
     d.hot.data()[p] = h.data()[p] > 0.5f ? 1 : 0;
     d.hot_count += d.hot.data()[p];

@@ -210,20 +210,15 @@ FlatField FlatField::load(const fs::path& json_path) {
   const MapRecord rec = read_map_record(json_path);
   const Json& j = rec.json;
   const std::string& where = rec.where;
-  const int W = rec.width, H = rec.height, C = rec.channels;
   FlatField f;
-  f.provenance = rec.provenance;
-  f.frame_count = rec.frame_count;
-  f.exposures_s = rec.exposures_s;
+  rec.fill(f);
   f.corner_ratio = json_get<double>(j, "corner_ratio", where);
   f.centre_to_corner = json_get<double>(j, "centre_to_corner", where);
   f.prnu_rel = json_get<double>(j, "prnu_rel", where);
   f.mean_signal_dn = json_get<double>(j, "mean_signal_dn", where);
   f.saturated_fraction = json_get<double>(j, "saturated_fraction", where);
   if (j.contains("noise")) f.noise = NoiseModel::from_json(j.at("noise"), where);
-  const ExrImage maps = read_map_file(json_path, j, W, H);
-  f.gain = ImageF(W, H, C);
-  read_map_planes(maps, "flat", f.gain);
+  f.gain = rec.map("flat");
   for (std::size_t p = 0; p < f.gain.size(); ++p) {
     const float v = f.gain.data()[p];
     if (!(v > 0.0f) || !std::isfinite(v))

@@ -51,7 +51,14 @@ MapRecord read_map_record(const fs::path& json_path) {
     throw DataError(r.where + ": bad width, height or channels");
   r.frame_count = json_get<int>(j, "frame_count", r.where);
   r.exposures_s = json_get<std::vector<double>>(j, "exposures_s", r.where);
+  r.maps = read_map_file(json_path, j, r.width, r.height);
   return r;
+}
+
+ImageF MapRecord::map(const std::string& base) const {
+  ImageF image(width, height, channels);
+  read_map_planes(maps, base, image);
+  return image;
 }
 
 ExrImage read_map_file(const fs::path& json_path, const Json& j, int width, int height) {

@@ -38,9 +38,20 @@ struct MapRecord {
   int width = 0, height = 0, channels = 0;
   int frame_count = 0;
   std::vector<double> exposures_s;
+  ExrImage maps;  // the EXR the JSON names, checked against its SHA-256 and size
+
+  // Copies the provenance, frame count and exposures into a DarkFrame or FlatField.
+  template <class Calibration>
+  void fill(Calibration& c) const {
+    c.provenance = provenance;
+    c.frame_count = frame_count;
+    c.exposures_s = exposures_s;
+  }
+  // The map `base` (width x height x channels) from its planes.
+  ImageF map(const std::string& base) const;
 };
-// Reads `json_path`: DataError naming it when a key is missing or the size is not positive
-// with 1 or 3 channels.
+// Reads `json_path` and the maps it names: DataError naming it when a key is missing, the size
+// is not positive with 1 or 3 channels, or the maps do not match (read_map_file).
 MapRecord read_map_record(const std::filesystem::path& json_path);
 
 // Reads the maps `j["maps"]` names beside `json_path`: DataError naming the JSON when the key,

@@ -248,16 +248,10 @@ Json AxfFit::to_json(const std::string& name) const {
 
 std::vector<double> evaluate_axf_carpaint(const FitData& data, const brdf::AxfCarPaintParams& params) {
   const brdf::AxfCarPaint model(params);
-  std::vector<double> out(3 * data.bins.size());
-  for (std::size_t q = 0; q < data.bins.size(); ++q) {
-    brdf::Rgb f = brdf::Rgb::Zero();
-    for (const FitMember* m = members_begin(data, data.bins[q]); m != members_end(data, data.bins[q]); ++m) {
-      const brdf::DirectionPair d = brdf::directions_from_half_diff({m->coords[0], 0.0, m->coords[1], m->coords[2]});
-      f += m->weight * model.eval(d.wi, d.wo);
-    }
-    for (int ch = 0; ch < 3; ++ch) out[3 * q + ch] = f[ch];
-  }
-  return out;
+  return evaluate_bins(data, brdf::Rgb::Zero(), [&](const FitMember& m) -> brdf::Rgb {
+    const brdf::DirectionPair d = brdf::directions_from_half_diff({m.coords[0], 0.0, m.coords[1], m.coords[2]});
+    return model.eval(d.wi, d.wo);
+  });
 }
 
 AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {

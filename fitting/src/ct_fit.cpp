@@ -438,15 +438,11 @@ Json CookTorranceFit::to_json(const std::string& name) const {
 }
 
 std::vector<double> evaluate_cook_torrance(const FitData& data, const brdf::CookTorranceParams& p) {
-  std::vector<double> out(3 * data.bins.size());
-  for (std::size_t q = 0; q < data.bins.size(); ++q) {
-    const FitBin& b = data.bins[q];
-    brdf::Rgb f = p.kd * std::numbers::inv_pi;
-    for (const FitMember* mb = members_begin(data, b); mb != members_end(data, b); ++mb)
-      for (const brdf::CtLobe& l : p.lobes) f += mb->weight * l.ks * brdf::ct_lobe(l.m, l.r, mb->geometry);
-    for (int c = 0; c < 3; ++c) out[3 * q + c] = f[c];
-  }
-  return out;
+  return evaluate_bins(data, p.kd * std::numbers::inv_pi, [&](const FitMember& m) {
+    brdf::Rgb f = brdf::Rgb::Zero();
+    for (const brdf::CtLobe& l : p.lobes) f += l.ks * brdf::ct_lobe(l.m, l.r, m.geometry);
+    return f;
+  });
 }
 
 CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {

@@ -54,6 +54,11 @@ Json ExtractionStats::to_json() const {
           {"invalid", invalid}, {"non_finite", non_finite},       {"grazing", grazing}};
 }
 
+std::string ExtractionStats::describe(std::size_t measured_bins) const {
+  return fmt::format("{} images: {} samples ({} invalid, {} grazing pixels skipped) in {} measured bins", images,
+                     samples, invalid, grazing, measured_bins);
+}
+
 SphereSampler::SphereSampler(const calib::RigCalibration& calibration, const ExtractionOptions& options)
     : cal_(&calibration), options_(options) {
   options_.check();

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "paintlab/acquisition/hdr_merge.h"
+#include "paintlab/calibration/exposure_stack.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
@@ -61,22 +62,14 @@ ImageF log_uniform(int w, int h, int c, double lo, double hi, std::uint64_t seed
   return img;
 }
 
-struct Stack {
-  std::vector<Image<std::uint16_t>> images;
-  std::vector<double> t;
-  std::vector<calib::StackFrame> frames() const {
-    std::vector<calib::StackFrame> f;
-    for (std::size_t j = 0; j < images.size(); ++j) f.push_back({&images[j], t[j]});
-    return f;
-  }
-};
+using Stack = calib::ExposureStack;
 
 Stack bracket(const Camera& cam, const ImageF& x, int count, double t0, double ratio, std::uint64_t seed) {
   Stack s;
   std::mt19937_64 rng(seed);
   for (int j = 0; j < count; ++j) {
-    s.t.push_back(t0 * std::pow(ratio, j));
-    s.images.push_back(cam.expose(x, s.t.back(), rng));
+    s.exposures_s.push_back(t0 * std::pow(ratio, j));
+    s.images.push_back(cam.expose(x, s.exposures_s.back(), rng));
   }
   return s;
 }
@@ -176,7 +169,7 @@ TEST(HdrMerge, StreamingEqualsBatch) {
   const auto frames = s.frames();
   const acq::HdrResult batch = merger.merge(frames);
   acq::HdrAccumulator acc = merger.accumulator();
-  for (std::size_t j = 0; j < s.images.size(); ++j) acc.add(s.images[j], s.t[j]);
+  for (std::size_t j = 0; j < s.images.size(); ++j) acc.add(s.images[j], s.exposures_s[j]);
   EXPECT_EQ(acc.frames(), 8);
   const acq::HdrResult stream = acc.finish();
   for (const std::string name : {"Y", "var.Y", "valid"}) {
@@ -251,7 +244,7 @@ TEST(HdrMerge, StreamingEqualsBatchWithDarkMapAndFlatFieldInRgb) {
   const auto frames = s.frames();
   const acq::HdrResult batch = merger.merge(frames);
   acq::HdrAccumulator acc = merger.accumulator();
-  for (std::size_t j = 0; j < s.images.size(); ++j) acc.add(s.images[j], s.t[j]);
+  for (std::size_t j = 0; j < s.images.size(); ++j) acc.add(s.images[j], s.exposures_s[j]);
   const acq::HdrResult stream = acc.finish();
   EXPECT_EQ(batch.stats.hot, 1);
   EXPECT_GT(batch.stats.valid, batch.stats.pixels * 9 / 10);
@@ -453,7 +446,7 @@ TEST(HdrMerge, MatchesOpenCvMergeRobertsonWithTheSameCurveAndWeights) {
     cv::Mat m(48, 64, CV_8UC3);
     for (std::size_t i = 0; i < s.images[j].size(); ++i) m.data[i] = static_cast<std::uint8_t>(s.images[j].data()[i]);
     images.push_back(m);
-    times.push_back(static_cast<float>(s.t[j]));
+    times.push_back(static_cast<float>(s.exposures_s[j]));
   }
   cv::Mat hdr;
   cv::createMergeRobertson()->process(images, hdr, times, lut);

@@ -20,15 +20,7 @@ using ::testing::HasSubstr;
 
 namespace {
 
-struct Frames {
-  std::vector<Image<std::uint16_t>> images;
-  std::vector<double> t;
-  std::vector<StackFrame> frames() const {
-    std::vector<StackFrame> f;
-    for (std::size_t j = 0; j < images.size(); ++j) f.push_back({&images[j], t[j]});
-    return f;
-  }
-};
+using Frames = ExposureStack;
 
 Frames expose(sim::Sensor& s, const ImageF& scene, const std::vector<double>& times, std::uint64_t first) {
   Frames f;
@@ -37,7 +29,7 @@ Frames expose(sim::Sensor& s, const ImageF& scene, const std::vector<double>& ti
     e.exposure_s = times[j];
     e.frame_index = first + j;
     f.images.push_back(s.expose(scene, e, 2));
-    f.t.push_back(times[j]);
+    f.exposures_s.push_back(times[j]);
   }
   return f;
 }

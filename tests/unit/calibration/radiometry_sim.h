@@ -47,17 +47,10 @@ inline ImageF log_uniform_radiance(int width, int height, int channels, double l
   return img;
 }
 
-struct SimStack {
+// The raw frames (ExposureStack) with the sensor that took them and the scene they show.
+struct SimStack : ExposureStack {
   std::unique_ptr<sim::Sensor> sensor;
   ImageF radiance;
-  std::vector<Image<std::uint16_t>> images;
-  std::vector<double> exposures_s;
-
-  std::vector<StackFrame> frames() const {
-    std::vector<StackFrame> f;
-    for (std::size_t j = 0; j < images.size(); ++j) f.push_back({&images[j], exposures_s[j]});
-    return f;
-  }
 };
 
 // The sim sensor exposing `radiance` at every exposure (noise realisation = frame index).

@@ -20,15 +20,7 @@ using ::testing::HasSubstr;
 
 namespace {
 
-struct GammaStack {
-  std::vector<Image<std::uint16_t>> images;
-  std::vector<double> exposures_s;
-  std::vector<StackFrame> frames() const {
-    std::vector<StackFrame> f;
-    for (std::size_t j = 0; j < images.size(); ++j) f.push_back({&images[j], exposures_s[j]});
-    return f;
-  }
-};
+using GammaStack = ExposureStack;
 
 // Exposure steps of 2 x (1, 1.37, 1.71, ...): ratios that are not all equal. With one
 // constant ratio r any curve g h(log_r g), h periodic, fits the data as well as g does

@@ -2,6 +2,7 @@
 // fit of what comes out (the pipeline from HDR images on, with the truth calibration).
 #include "paintlab/fitting/extraction.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -67,10 +68,12 @@ TEST(Extraction, BinnedSimulatedFramesAgreeWithTheTruthWithinTheNoise) {
   ExtractionOptions eo;
   eo.threads = 2;
   const BinnedTable t = bin_frames(session->frames, cal, eo, {}, &stats);
-  std::printf("extraction: %llu images, %llu sphere pixels, %llu samples, %llu grazing, %llu invalid\n",
-              static_cast<unsigned long long>(stats.images), static_cast<unsigned long long>(stats.sphere_pixels),
-              static_cast<unsigned long long>(stats.samples), static_cast<unsigned long long>(stats.grazing),
-              static_cast<unsigned long long>(stats.invalid));
+  const std::size_t measured = t.table.count_in_state(brdf::BinState::Measured);
+  const std::string said = stats.describe(measured);
+  std::printf("extraction: %s (%llu sphere pixels)\n", said.c_str(),
+              static_cast<unsigned long long>(stats.sphere_pixels));
+  EXPECT_EQ(said, fmt::format("{} images: {} samples (0 invalid, {} grazing pixels skipped) in {} measured bins",
+                              session->frames.size(), t.samples_binned, stats.grazing, measured));
   EXPECT_EQ(stats.images, session->frames.size());
   EXPECT_EQ(stats.samples, t.samples_binned);
   EXPECT_EQ(stats.invalid, 0u);

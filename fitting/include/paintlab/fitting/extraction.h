@@ -56,6 +56,8 @@ struct ExtractionStats {
   std::uint64_t grazing = 0;         // n.wi or n.wo below min_cos, or unlit
   void add(const ExtractionStats& o);
   Json to_json() const;
+  // "N images: S samples (I invalid, G grazing pixels skipped) in B measured bins"
+  std::string describe(std::size_t measured_bins) const;
 };
 
 // One HDR image and the table angle it was taken at.

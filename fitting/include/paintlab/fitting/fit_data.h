@@ -141,6 +141,20 @@ inline const FitMember* members_end(const FitData& d, const FitBin& b) {
   return d.members.data() + b.member_begin + b.member_count;
 }
 
+// A model's value at every fit point, 3 values (R, G, B) a point as the residuals take them:
+// `base` plus the weighted sum over the point's members of `member_value(member)` (an Rgb).
+template <class MemberValue>
+std::vector<double> evaluate_bins(const FitData& data, const brdf::Rgb& base, MemberValue member_value) {
+  std::vector<double> out(3 * data.bins.size());
+  for (std::size_t q = 0; q < data.bins.size(); ++q) {
+    brdf::Rgb f = base;
+    for (const FitMember* m = members_begin(data, data.bins[q]); m != members_end(data, data.bins[q]); ++m)
+      f += m->weight * member_value(*m);
+    for (int c = 0; c < 3; ++c) out[3 * q + c] = f[c];
+  }
+  return out;
+}
+
 // Throws DataError when the table has no usable measured bins ("the table has no
 // measured bins with positive values: nothing to fit"). `noise_variance` (3 per bin, the
 // mean per-sample noise variance; may be null or empty) replaces the sample spread.
