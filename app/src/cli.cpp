@@ -46,6 +46,20 @@ void on_run(CLI::App* sub, std::function<int()> run) {
   sub->callback([run = std::move(run)] { g_chosen = run; });
 }
 
+void add_validate_command(CLI::App* group, const std::string& help, const std::string& file_help,
+                          const std::string& json_help, std::string (*describe)(const std::string& file, bool json)) {
+  struct ValidateArgs {
+    std::string file;
+    bool json = false;
+  };
+  auto [validate, a] = add_command<ValidateArgs>(group, "validate", help, [describe](const ValidateArgs& args) {
+    say(describe(args.file, args.json));
+    return kExitOk;
+  });
+  validate->add_option("FILE", a->file, file_help)->required();
+  validate->add_flag("--json", a->json, json_help);
+}
+
 const std::function<int()>* chosen_command() { return g_chosen ? &g_chosen : nullptr; }
 
 CLI::App* subcommand_group(CLI::App& app, const std::string& name, const std::string& description) {

@@ -28,6 +28,12 @@ std::pair<CLI::App*, Args*> add_command(CLI::App* parent, const std::string& nam
   return {cmd, args.get()};
 }
 
+// `GROUP validate FILE [--json]` for the TOML files paintlab reads (rig, paint): `describe`
+// loads the file (its errors name file, line and key) and returns what to print, as JSON
+// with --json.
+void add_validate_command(CLI::App* group, const std::string& help, const std::string& file_help,
+                          const std::string& json_help, std::string (*describe)(const std::string& file, bool json));
+
 // The function chosen by the command line, or nullptr.
 const std::function<int()>* chosen_command();
 

@@ -22,6 +22,11 @@ namespace paintlab::app {
 
 namespace {
 
+// The commands' descriptions (their --help).
+constexpr const char* kCheckHelp =
+    "Is the rig fit to measure? Every check against rig.toml's tolerances (writes calib/check.json; exit 1 on a "
+    "failure)";
+
 struct CheckArgs {
   std::string rig;
   bool capture = false;
@@ -62,11 +67,7 @@ int run_check(const CheckArgs& a) {
 }  // namespace
 
 void register_check_commands(CLI::App& app) {
-  auto [cmd, a] = add_command<CheckArgs>(
-      &app, "check",
-      "Is the rig fit to measure? Every check against rig.toml's tolerances (writes calib/check.json; exit 1 on a "
-      "failure)",
-      run_check);
+  auto [cmd, a] = add_command<CheckArgs>(&app, "check", kCheckHelp, run_check);
   cmd->add_option("--rig", a->rig, "rig.toml")->required();
   cmd->add_flag("--capture", a->capture, "also check the rig live through its devices (sphere, focus, LED, drift)");
   cmd->add_option("--images", a->images, "live evidence from a folder: sphere/, light/, drift/, reference/");

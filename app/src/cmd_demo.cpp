@@ -32,6 +32,11 @@
 namespace paintlab::app {
 namespace {
 
+// The commands' descriptions (their --help).
+constexpr const char* kDemoHelp =
+    "The simulated rig end to end: calibrate, check, measure, fit, export, library, preview; prints a summary "
+    "(truth vs fit, calibration errors, timings) and writes DIR/summary.json";
+
 namespace fs = std::filesystem;
 
 constexpr const char* kMarker = ".paintlab-demo";
@@ -266,11 +271,7 @@ int run_demo(const DemoArgs& a) {
 }  // namespace
 
 void register_demo_commands(CLI::App& app) {
-  auto [d, a] = add_command<DemoArgs>(
-      &app, "demo",
-      "The simulated rig end to end: calibrate, check, measure, fit, export, library, preview; prints a summary "
-      "(truth vs fit, calibration errors, timings) and writes DIR/summary.json",
-      run_demo);
+  auto [d, a] = add_command<DemoArgs>(&app, "demo", kDemoHelp, run_demo);
   d->add_option("--out", a->out, "Folder for everything the demo writes (new, or an earlier demo's)")->required();
   d->add_option("--paint", a->paint, "Paint file to measure (default: the built-in silver-metallic)");
   d->add_flag("--quick", a->quick, "Half resolution, light every 10 deg, 8 exposures (under 2 minutes)");

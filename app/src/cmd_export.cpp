@@ -22,6 +22,14 @@ namespace paintlab::app {
 
 namespace {
 
+// The commands' descriptions (their --help).
+constexpr const char* kExportHelp =
+    "Export a measured paint: an AxF-like HDF5 file (docs/axf-like.md) and/or the measured, hole-filled MERL "
+    ".binary table.\nINPUT is a session folder (binned and fitted here), or one or two paint files: fit.json "
+    "(either model; two fits of one measurement are merged), .axf.h5 or paint .toml.\nExit 0 written, 1 the fit "
+    "made here did not converge (the files are written all the same and record it; a paint file whose fit did "
+    "not converge is exported with a warning, exit 0), 2 bad input (nothing written).";
+
 struct ExportArgs {
   std::vector<std::string> inputs;
   std::string axf;
@@ -84,14 +92,7 @@ int run_validate(const std::vector<std::string>& files) {
 }  // namespace
 
 void register_export_commands(CLI::App& app) {
-  auto [exp, args] = add_command<ExportArgs>(
-      &app, "export",
-      "Export a measured paint: an AxF-like HDF5 file (docs/axf-like.md) and/or the measured, hole-filled MERL "
-      ".binary table.\nINPUT is a session folder (binned and fitted here), or one or two paint files: fit.json "
-      "(either model; two fits of one measurement are merged), .axf.h5 or paint .toml.\nExit 0 written, 1 the fit "
-      "made here did not converge (the files are written all the same and record it; a paint file whose fit did "
-      "not converge is exported with a warning, exit 0), 2 bad input (nothing written).",
-      run_export);
+  auto [exp, args] = add_command<ExportArgs>(&app, "export", kExportHelp, run_export);
   exp->add_option("INPUT", args->inputs, "session folder, or fit.json / .axf.h5 / .toml (one or two)")->required();
   exp->add_option("--axf", args->axf, "AxF-like paint file to write (.axf.h5)");
   exp->add_option("--merl", args->merl, "MERL .binary to write (measured bins + hole filling)");

@@ -31,6 +31,17 @@ namespace paintlab::app {
 
 namespace {
 
+// The commands' descriptions (their --help).
+constexpr const char* kFitHelp =
+    "Fit a paint model to a session (its HDR images are extracted and binned with the rig's calibration) or to a "
+    "MERL .binary table, and write fit.json (parameters, standard deviations, residuals per region, solver "
+    "summary). Exit 1 when the fit does not converge (fit.json is still written, with \"converged\": false and "
+    "the solver's termination), 2 on bad input (nothing is written then).";
+constexpr const char* kBinHelp =
+    "Extract the BRDF samples of a session's HDR images and bin them into a MERL .binary table (empty bins as "
+    "-1) with a coverage map (EXR: count, state, valid, R, G, B per bin). Exit 2 on bad input; nothing is written "
+    "then.";
+
 namespace fs = std::filesystem;
 
 struct FitArgs {
@@ -120,13 +131,7 @@ int run_bin(const BinArgs& a) {
 }  // namespace
 
 void register_fit_commands(CLI::App& app) {
-  auto [fit, args] = add_command<FitArgs>(
-      &app, "fit",
-      "Fit a paint model to a session (its HDR images are extracted and binned with the rig's calibration) or to a "
-      "MERL .binary table, and write fit.json (parameters, standard deviations, residuals per region, solver "
-      "summary). Exit 1 when the fit does not converge (fit.json is still written, with \"converged\": false and "
-      "the solver's termination), 2 on bad input (nothing is written then).",
-      run_fit);
+  auto [fit, args] = add_command<FitArgs>(&app, "fit", kFitHelp, run_fit);
   fit->add_option("INPUT", args->input, "Session folder or MERL .binary table")->required();
   fit->add_option("--model", args->model, "Model to fit: cook-torrance or axf-carpaint")->capture_default_str();
   sets_fields(fit->add_option("--lobes", args->lobes, "Lobes (Cook-Torrance, or the car paint's achromatic lobes), 1..3"),
@@ -150,12 +155,7 @@ void register_fit_commands(CLI::App& app) {
       ->capture_default_str();
   add_extract_options(fit, args->extract, true);
 
-  auto [bin, bargs] = add_command<BinArgs>(
-      &app, "bin",
-      "Extract the BRDF samples of a session's HDR images and bin them into a MERL .binary table (empty bins as "
-      "-1) with a coverage map (EXR: count, state, valid, R, G, B per bin). Exit 2 on bad input; nothing is written "
-      "then.",
-      run_bin);
+  auto [bin, bargs] = add_command<BinArgs>(&app, "bin", kBinHelp, run_bin);
   bin->add_option("SESSION", bargs->session, "Session folder")->required();
   bin->add_option("--out", bargs->out, "MERL .binary table to write")->required();
   bin->add_option("--coverage", bargs->coverage, "Coverage map to write (default: OUT's name with .coverage.exr)");

@@ -30,6 +30,12 @@ namespace fs = std::filesystem;
 namespace paintlab::app {
 namespace {
 
+// The commands' descriptions (their --help).
+constexpr const char* kMeasureHelp =
+    "Measure a sample: sweep the light, capture exposure brackets, merge them into HDR images.\n"
+    "Writes DIR/session.json, DIR/journal.jsonl and DIR/hdr/pos_XXX.exr. Ctrl-C stops safely\n"
+    "(LED off, table stopped); `paintlab measure --resume DIR` continues where it stopped.";
+
 struct MeasureArgs {
   std::string rig;
   std::string sample;
@@ -137,12 +143,7 @@ int run_measure(const MeasureArgs& a) {
 }  // namespace
 
 void register_measure_commands(CLI::App& app) {
-  auto [m, a] = add_command<MeasureArgs>(
-      &app, "measure",
-      "Measure a sample: sweep the light, capture exposure brackets, merge them into HDR images.\n"
-      "Writes DIR/session.json, DIR/journal.jsonl and DIR/hdr/pos_XXX.exr. Ctrl-C stops safely\n"
-      "(LED off, table stopped); `paintlab measure --resume DIR` continues where it stopped.",
-      run_measure);
+  auto [m, a] = add_command<MeasureArgs>(&app, "measure", kMeasureHelp, run_measure);
   m->add_option("--rig", a->rig, "rig.toml (for --resume: overrides the rig file recorded in the session)");
   m->add_option("--sample", a->sample, "sample name (recorded in the session)")->check(utf8_text());
   m->add_option("--out", a->out, "session folder to create (must be new or empty)");

@@ -1,4 +1,4 @@
-// paintlab paint validate FILE
+// paintlab paint validate FILE [--json]
 #include <fmt/format.h>
 
 #include "cli.h"
@@ -7,27 +7,16 @@
 namespace paintlab::app {
 
 void register_paint_commands(CLI::App& app) {
-  CLI::App* paint = subcommand_group(app, "paint", "Paint files (TOML): check what they describe");
-  struct ValidateArgs {
-    std::string file;
-    bool json = false;
-  };
-  auto [validate, a] = add_command<ValidateArgs>(
-      paint, "validate", "Check a paint file and print its parameters (or the first error: file, line, key)",
-      [](const ValidateArgs& args) {
-        const brdf::PaintSpec spec = brdf::load_paint_file(args.file);
-        if (args.json) {
-          say(brdf::to_json(spec).dump(2));
-          return kExitOk;
-        }
-        say(fmt::format("paint '{}' ({}): valid", spec.name, args.file));
-        say(fmt::format("  model                 {}", spec.model()));
-        const std::string text = brdf::describe_paint(spec);
-        say(std::string_view(text).substr(text.find('\n') + 1));  // describe_paint's own title line left out
-        return kExitOk;
+  add_validate_command(
+      subcommand_group(app, "paint", "Paint files (TOML): check what they describe"),
+      "Check a paint file and print its parameters (or the first error: file, line, key)", "paint .toml to check",
+      "Print the parsed paint as JSON (the summary.json \"truth\" shape)", [](const std::string& file, bool json) {
+        const brdf::PaintSpec spec = brdf::load_paint_file(file);
+        if (json) return brdf::to_json(spec).dump(2);
+        const std::string text = brdf::describe_paint(spec);  // its own title line is left out
+        return fmt::format("paint '{}' ({}): valid\n  model                 {}\n{}", spec.name, file, spec.model(),
+                           text.substr(text.find('\n') + 1));
       });
-  validate->add_option("FILE", a->file, "paint .toml to check")->required();
-  validate->add_flag("--json", a->json, "Print the parsed paint as JSON (the summary.json \"truth\" shape)");
 }
 
 }  // namespace paintlab::app

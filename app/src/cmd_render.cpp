@@ -17,6 +17,13 @@ namespace paintlab::app {
 
 namespace {
 
+// The commands' descriptions (their --help).
+constexpr const char* kRenderHelp =
+    "Render a preview of a paint: a sphere lit by a point light (and an HDR environment map with --env), "
+    "tone-mapped to sRGB PNG (linear x exposure, clipped, sRGB curve; automatic exposure puts the 99.5th "
+    "percentile at white).\nWith --compare SESSION: the measured HDR image at the light angle nearest --angle, "
+    "the model rendered in the calibrated rig geometry, and their difference, side by side.";
+
 struct RenderArgs {
   std::string paint;
   std::string out;
@@ -81,13 +88,7 @@ int run_render(const RenderArgs& a) {
 }  // namespace
 
 void register_render_commands(CLI::App& app) {
-  auto [r, args] = add_command<RenderArgs>(
-      &app, "render",
-      "Render a preview of a paint: a sphere lit by a point light (and an HDR environment map with --env), "
-      "tone-mapped to sRGB PNG (linear x exposure, clipped, sRGB curve; automatic exposure puts the 99.5th "
-      "percentile at white).\nWith --compare SESSION: the measured HDR image at the light angle nearest --angle, "
-      "the model rendered in the calibrated rig geometry, and their difference, side by side.",
-      run_render);
+  auto [r, args] = add_command<RenderArgs>(&app, "render", kRenderHelp, run_render);
   r->add_option("PAINT", args->paint, "paint: .axf.h5, fit.json or paint .toml")->required();
   r->add_option("--out", args->out, "PNG to write")->required();
   r->add_option("--env", args->env, "Equirectangular HDR environment map (.exr, 2:1)");

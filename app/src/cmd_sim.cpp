@@ -19,6 +19,10 @@ namespace paintlab::app {
 
 namespace {
 
+// The commands' descriptions (their --help).
+constexpr const char* kRenderHelp =
+    "Render the simulated camera's view: scene radiance as EXR, or one exposure as a 16-bit PNG of raw values";
+
 struct RenderArgs {
   std::string rig;
   std::string paint;
@@ -95,10 +99,7 @@ int run_render(const RenderArgs& a) {
 
 void register_sim_commands(CLI::App& app) {
   CLI::App* sim = subcommand_group(app, "sim", "The simulated rig: render what its camera sees, serve simulated devices");
-  auto [render, args] = add_command<RenderArgs>(
-      sim, "render",
-      "Render the simulated camera's view: scene radiance as EXR, or one exposure as a 16-bit PNG of raw values",
-      run_render);
+  auto [render, args] = add_command<RenderArgs>(sim, "render", kRenderHelp, run_render);
   render->add_option("--rig", args->rig, "rig.toml with the simulated world ([geometry] and [sim])")->required();
   render->add_option("--paint", args->paint, "paint .toml on the sphere (scene sphere)");
   render->add_option("--angle", args->angle_deg, "table angle, deg (the LED position)");

@@ -18,6 +18,7 @@
 #include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
+#include "dense_solve.h"
 
 namespace paintlab::calib {
 
@@ -203,16 +204,7 @@ SaddleResult fit_saddle(const cv::Mat& img, const Vec2& start, double theta1, do
   std::unique_ptr<ceres::CostFunction> owned(cost);
   ceres::Problem problem(po);
   problem.AddResidualBlock(cost, nullptr, p);
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 60;
-  so.function_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-10;
-  so.gradient_tolerance = 1e-14;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
+  const ceres::Solver::Summary summary = solve_dense(problem, 60, 1e-12, 1e-10, 1e-14);
   if (summary.termination_type == ceres::FAILURE) return out;
 
   const double sigma = std::exp(p[4]);

@@ -210,15 +210,13 @@ void DarkFrame::save(const fs::path& json_path) const {
 
 DarkFrame DarkFrame::load(const fs::path& json_path) {
   const MapRecord rec = read_map_record(json_path);
-  const Json& j = rec.json;
-  const std::string& where = rec.where;
   DarkFrame d;
   rec.fill(d);
-  d.bit_depth = json_get<int>(j, "bit_depth", where);
-  d.mean_bias_dn = json_get<double>(j, "mean_bias_dn", where);
-  d.mean_rate_dn_per_s = json_get<double>(j, "mean_rate_dn_per_s", where);
-  if (j.contains("read_noise_dn") && !j.at("read_noise_dn").is_null()) {
-    d.read_noise_dn = json_get<double>(j, "read_noise_dn", where);
+  d.bit_depth = rec.get<int>("bit_depth");
+  d.mean_bias_dn = rec.get<double>("mean_bias_dn");
+  d.mean_rate_dn_per_s = rec.get<double>("mean_rate_dn_per_s");
+  if (rec.json.contains("read_noise_dn") && !rec.json.at("read_noise_dn").is_null()) {
+    d.read_noise_dn = rec.get<double>("read_noise_dn");
     d.read_noise_measured = true;
   }
   d.bias_dn = rec.map("bias");

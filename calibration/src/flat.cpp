@@ -208,21 +208,19 @@ void FlatField::save(const fs::path& json_path) const {
 
 FlatField FlatField::load(const fs::path& json_path) {
   const MapRecord rec = read_map_record(json_path);
-  const Json& j = rec.json;
-  const std::string& where = rec.where;
   FlatField f;
   rec.fill(f);
-  f.corner_ratio = json_get<double>(j, "corner_ratio", where);
-  f.centre_to_corner = json_get<double>(j, "centre_to_corner", where);
-  f.prnu_rel = json_get<double>(j, "prnu_rel", where);
-  f.mean_signal_dn = json_get<double>(j, "mean_signal_dn", where);
-  f.saturated_fraction = json_get<double>(j, "saturated_fraction", where);
-  if (j.contains("noise")) f.noise = NoiseModel::from_json(j.at("noise"), where);
+  f.corner_ratio = rec.get<double>("corner_ratio");
+  f.centre_to_corner = rec.get<double>("centre_to_corner");
+  f.prnu_rel = rec.get<double>("prnu_rel");
+  f.mean_signal_dn = rec.get<double>("mean_signal_dn");
+  f.saturated_fraction = rec.get<double>("saturated_fraction");
+  if (rec.json.contains("noise")) f.noise = NoiseModel::from_json(rec.json.at("noise"), rec.where);
   f.gain = rec.map("flat");
   for (std::size_t p = 0; p < f.gain.size(); ++p) {
     const float v = f.gain.data()[p];
     if (!(v > 0.0f) || !std::isfinite(v))
-      throw DataError(fmt::format("{}: its map's gain {} at value {} is not finite and > 0", where, v, p));
+      throw DataError(fmt::format("{}: its map's gain {} at value {} is not finite and > 0", rec.where, v, p));
   }
   return f;
 }

@@ -13,6 +13,7 @@
 #include "paintlab/calibration/cost_functions.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
+#include "dense_solve.h"
 
 namespace paintlab::calib {
 
@@ -79,16 +80,7 @@ void refine(const std::vector<const CornerView*>& views, const BoardSpec& board,
     in[8] = 0.0;
     problem.SetManifold(in, new ceres::SubsetManifold(9, {8}));
   }
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_SCHUR;
-  so.max_num_iterations = 500;
-  so.function_tolerance = 1e-16;
-  so.parameter_tolerance = 1e-16;
-  so.gradient_tolerance = 1e-20;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
+  const ceres::Solver::Summary summary = solve_dense(problem, 500, 1e-16, 1e-16, 1e-20, ceres::DENSE_SCHUR);
   if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost)) return;  // keep OpenCV's
   const double rms = std::sqrt(2.0 * summary.final_cost / n);
   if (!(rms <= s->rms * 1.0001 + 1e-12)) return;

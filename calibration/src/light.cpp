@@ -10,6 +10,7 @@
 #include "paintlab/calibration/cost_functions.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
+#include "dense_solve.h"
 
 namespace paintlab::calib {
 
@@ -237,15 +238,7 @@ Highlight find_highlight(const HighlightImage& image, const CameraModel& camera,
   } else {
     problem.SetParameterBlockConstant(&logblur);
   }
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 100;
-  so.function_tolerance = 1e-14;
-  so.parameter_tolerance = 1e-12;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
+  const ceres::Solver::Summary summary = solve_dense(problem, 100, 1e-14, 1e-12);
   const double m = std::exp(logm);
   if (summary.termination_type == ceres::FAILURE || !(amp > options.min_snr * noise * 0.05) || !(m > 1e-4 && m < 0.6)) {
     hl.reason = fmt::format("the highlight model did not fit (roughness {:.3g}, amplitude {:.3g})", m, amp);
@@ -459,14 +452,7 @@ LightCalibration fit_light_model(std::vector<Highlight> highlights, const Sphere
       throw CalibrationError(fmt::format("light: only {} highlights agree with one LED circle (at least 4 needed){}", n,
                                          failures()));
     problem->SetParameterLowerBound(p.rhz, 0, 2.0 * sphere.radius_m);
-    ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_QR;
-    so.max_num_iterations = 200;
-    so.function_tolerance = 1e-15;
-    so.parameter_tolerance = 1e-14;
-    so.gradient_tolerance = 1e-16;
-    so.logging_type = ceres::SILENT;
-    ceres::Solve(so, problem.get(), &summary);
+    summary = solve_dense(*problem, 200, 1e-15, 1e-14, 1e-16);
     if (summary.termination_type == ceres::FAILURE)
       throw CalibrationError("light: the LED circle fit failed: " + summary.BriefReport());
     const LightModel m = model_from(p, C, a0, e1, e2);

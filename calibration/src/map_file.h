@@ -47,6 +47,11 @@ struct MapRecord {
     c.frame_count = frame_count;
     c.exposures_s = exposures_s;
   }
+  // The value of `key` in the JSON; DataError naming the file and key.
+  template <class T>
+  T get(const std::string& key) const {
+    return json_get<T>(json, key, where);
+  }
   // The map `base` (width x height x channels) from its planes.
   ImageF map(const std::string& base) const;
 };

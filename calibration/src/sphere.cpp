@@ -13,6 +13,7 @@
 #include "paintlab/calibration/cost_functions.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
+#include "dense_solve.h"
 
 namespace paintlab::calib {
 
@@ -146,15 +147,7 @@ SectorEdge fit_sector(const std::vector<double>& r, const std::vector<double>& v
   const double s_min = o.pixel_box ? 0.05 : 0.1;
   problem.SetParameterLowerBound(p, 1, std::log(s_min));
   problem.SetParameterUpperBound(p, 1, std::log(8.0));
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 80;
-  so.function_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-10;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
+  const ceres::Solver::Summary summary = solve_dense(problem, 80, 1e-12, 1e-10);
   if (summary.termination_type == ceres::FAILURE) return out;
   const double sigma = std::exp(p[1]);
   if (!std::isfinite(p[0]) || p[0] < r0 - o.band_inside_px + 2.0 || p[0] > r0 + o.band_outside_px - 2.0) return out;
@@ -450,14 +443,7 @@ Cone fit_cone(const std::vector<Vec3>& rays, const std::vector<double>& weights,
     problem.AddResidualBlock(
         SilhouetteConeCost::Create({rays[i], d0, c.e1, c.e2, weights[i]}),
         new ceres::HuberLoss(3.0), ab, &alpha);
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 100;
-  so.function_tolerance = 1e-14;
-  so.parameter_tolerance = 1e-14;
-  so.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
+  const ceres::Solver::Summary summary = solve_dense(problem, 100, 1e-14, 1e-14);
   if (summary.termination_type == ceres::FAILURE) return c;
   ceres::Covariance::Options co;
   ceres::Covariance cov(co);

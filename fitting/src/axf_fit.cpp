@@ -234,10 +234,7 @@ Json AxfStddev::to_json() const {
 Json ChiReport::to_json() const { return {{"measured_texels", measured_texels}, {"filled_texels", filled_texels}}; }
 
 Json AxfFit::to_json(const std::string& name) const {
-  brdf::PaintSpec spec;
-  spec.name = name;
-  spec.params = params;
-  Json j = brdf::to_json(spec);
+  Json j = brdf::to_json(brdf::PaintSpec{name, params, std::nullopt, {}});
   j["residual"] = residual.to_json();
   j["achromatic_residual"] = achromatic.to_json();
   j["stddev"] = stddev.to_json();

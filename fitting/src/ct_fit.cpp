@@ -427,10 +427,7 @@ Json CookTorranceStddev::to_json() const {
 }
 
 Json CookTorranceFit::to_json(const std::string& name) const {
-  brdf::PaintSpec spec;
-  spec.name = name;
-  spec.params = params;
-  Json j = brdf::to_json(spec);
+  Json j = brdf::to_json(brdf::PaintSpec{name, params, std::nullopt, {}});
   j["residual"] = residual.to_json();
   j["stddev"] = stddev.to_json();
   j["summary"] = summary.to_json();

@@ -208,6 +208,21 @@ namespace {
 
 brdf::PaintSpec silver() { return brdf::load_paint_file(test::source_dir() / "paints/silver-metallic.toml"); }
 
+// A simulated session of the silver paint at 1 % noise (without sparkle unless asked), lit
+// from `start` to `stop` deg in `step` deg steps; width x height px (0: the default size).
+std::unique_ptr<test_support::SimSession> silver_session(double start, double stop, double step, int width = 0,
+                                                         int height = 0, bool sparkle = false) {
+  test_support::SimSessionOptions so;
+  if (width > 0) so.width_px = width;
+  if (height > 0) so.height_px = height;
+  so.start_deg = start;
+  so.stop_deg = stop;
+  so.step_deg = step;
+  so.sparkle = sparkle;
+  so.noise_rel = 0.01;
+  return test_support::make_sim_session(sim::sim_paint(silver()), so);
+}
+
 brdf::PaintSpec scaled(brdf::PaintSpec spec, double k) {
   auto& ct = std::get<brdf::CookTorranceParams>(spec.params);
   ct.kd *= k;
@@ -244,11 +259,7 @@ fs::path make_session_folder(const test_support::SimSession& sim, const fs::path
 }  // namespace
 
 TEST(Preview, ComparisonWithTheTruthMatchesAndAWrongPaintDoesNot) {
-  test_support::SimSessionOptions so;
-  so.start_deg = so.stop_deg = 60.0;
-  so.sparkle = false;
-  so.noise_rel = 0.01;
-  auto sim = test_support::make_sim_session(sim::sim_paint(silver()), so);
+  auto sim = silver_session(60.0, 60.0, 1.0);
   const calib::RigCalibration cal = calib::RigCalibration::load(sim->calibration_dir());
   const ExrImage measured = read_exr(sim->frames[0].path);
 
@@ -284,11 +295,7 @@ TEST(Preview, ComparisonWithTheTruthMatchesAndAWrongPaintDoesNot) {
 TEST(Preview, ComparisonWindowAveragesFlakeSparkle) {
   // With sparkle the flake lobes' light lands in a few bright pixels; pixel by pixel the
   // true paint looks wrong almost everywhere, over the comparison window it matches.
-  test_support::SimSessionOptions so;
-  so.start_deg = so.stop_deg = 60.0;
-  so.sparkle = true;
-  so.noise_rel = 0.01;
-  auto sim = test_support::make_sim_session(sim::sim_paint(silver()), so);
+  auto sim = silver_session(60.0, 60.0, 1.0, 0, 0, true);
   const calib::RigCalibration cal = calib::RigCalibration::load(sim->calibration_dir());
   const ExrImage measured = read_exr(sim->frames[0].path);
   const auto truth = brdf::make_brdf(silver());
@@ -345,15 +352,7 @@ TEST(PreviewCli, RenderWritesPngAndHdrAndUsesAnEnvironment) {
 }
 
 TEST(PreviewCli, ExportASessionAndCompareWithIt) {
-  test_support::SimSessionOptions so;
-  so.width_px = 480;
-  so.height_px = 360;
-  so.start_deg = 20.0;
-  so.stop_deg = 90.0;
-  so.step_deg = 35.0;
-  so.sparkle = false;
-  so.noise_rel = 0.01;
-  auto sim = test_support::make_sim_session(sim::sim_paint(silver()), so);
+  auto sim = silver_session(20.0, 90.0, 35.0, 480, 360);
   test::TempDir tmp;
   const fs::path session = make_session_folder(*sim, tmp / "session");
   const std::string calib = " --calib " + sim->calibration_dir().string();
@@ -397,15 +396,7 @@ TEST(PreviewCli, ExportASessionAndCompareWithIt) {
 // export (bin once, fit, AxF-like + MERL + fit.json), an AxF-like file from fits in memory,
 // library add, preview, comparison.
 TEST(ExportSupport, ExportLibraryAndRenderAsFunctions) {
-  test_support::SimSessionOptions so;
-  so.width_px = 480;
-  so.height_px = 360;
-  so.start_deg = 30.0;
-  so.stop_deg = 120.0;
-  so.step_deg = 30.0;
-  so.sparkle = false;
-  so.noise_rel = 0.01;
-  auto sim = test_support::make_sim_session(sim::sim_paint(silver()), so);
+  auto sim = silver_session(30.0, 120.0, 30.0, 480, 360);
   test::TempDir tmp;
   const fs::path session = make_session_folder(*sim, tmp / "session");
 
