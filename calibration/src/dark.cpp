@@ -13,6 +13,7 @@
 #include "paintlab/core/hash.h"
 #include "paintlab/core/image_io.h"
 #include "paintlab/core/robust.h"
+#include "paintlab/core/line_fit.h"
 
 namespace fs = std::filesystem;
 
@@ -100,21 +101,11 @@ DarkFrame calibrate_dark(std::span<const StackFrame> frames, int bit_depth, cons
       if (pooled_dof > 0) pooled_var[s] /= static_cast<float>(pooled_dof);
       if (G >= 2) {
         // Weighted least squares line through the group means: level = bias + rate * t.
-        double sw = 0, st = 0, sv = 0, stt = 0, stv = 0;
-        for (std::size_t gi = 0; gi < G; ++gi) {
-          const double w = static_cast<double>(groups[gi].images.size());
-          const double t = groups[gi].t;
-          const double v = mean[gi][s];
-          sw += w;
-          st += w * t;
-          sv += w * v;
-          stt += w * t * t;
-          stv += w * t * v;
-        }
-        const double det = sw * stt - st * st;
-        const double rate = det > 0.0 ? (sw * stv - st * sv) / det : 0.0;
-        d.rate_dn_per_s.data()[s] = static_cast<float>(rate);
-        d.bias_dn.data()[s] = static_cast<float>((sv - rate * st) / sw);
+        WeightedLineFit line;
+        for (std::size_t gi = 0; gi < G; ++gi)
+          line.add(groups[gi].t, mean[gi][s], static_cast<double>(groups[gi].images.size()));
+        d.rate_dn_per_s.data()[s] = static_cast<float>(line.slope());
+        d.bias_dn.data()[s] = static_cast<float>(line.intercept());
       } else {
         d.bias_dn.data()[s] = mean[0][s];
         d.rate_dn_per_s.data()[s] = 0.0f;
@@ -204,8 +195,7 @@ void DarkFrame::save(const fs::path& json_path) const {
   ImageF h(width(), height(), 1);
   for (std::size_t p = 0; p < h.size(); ++p) h.data()[p] = hot.data()[p];
   maps.add("hot", std::move(h));
-  const WrittenMaps written = write_map_file(json_path, std::move(maps), "dark");
-  write_json_file(json_path, to_json(written.file, written.sha256));
+  save_map_record(json_path, std::move(maps), "dark", *this);
 }
 
 DarkFrame DarkFrame::load(const fs::path& json_path) {

@@ -202,8 +202,7 @@ Json FlatField::to_json(const std::string& map_file, const std::string& map_sha2
 void FlatField::save(const fs::path& json_path) const {
   ExrImage maps;
   add_map_planes(maps, "flat", gain);
-  const WrittenMaps written = write_map_file(json_path, std::move(maps), "flat");
-  write_json_file(json_path, to_json(written.file, written.sha256));
+  save_map_record(json_path, std::move(maps), "flat", *this);
 }
 
 FlatField FlatField::load(const fs::path& json_path) {

@@ -29,6 +29,15 @@ struct WrittenMaps {
 // extension .exr.
 WrittenMaps write_map_file(const std::filesystem::path& json_path, ExrImage maps, const std::string& kind);
 
+// Writes `maps` beside `json_path` (write_map_file), then the JSON that names them,
+// `record.to_json(file, sha256)`.
+template <class Record>
+void save_map_record(const std::filesystem::path& json_path, ExrImage maps, const std::string& kind,
+                     const Record& record) {
+  const WrittenMaps written = write_map_file(json_path, std::move(maps), kind);
+  write_json_file(json_path, record.to_json(written.file, written.sha256));
+}
+
 // What dark.json and flat.json share: the file, its provenance, the maps' size and the frames
 // they were made from.
 struct MapRecord {

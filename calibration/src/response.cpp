@@ -18,6 +18,7 @@
 #include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
+#include "paintlab/core/line_fit.h"
 
 namespace paintlab::calib {
 
@@ -995,7 +996,7 @@ void Solver::residual_statistics(ResponseCurve* out) {
   }
 
   // Read + shot model in DN fitted to the spread over the used range: var_dn = (sd / slope)^2.
-  double sw = 0, su = 0, sv = 0, suu = 0, suv = 0;
+  WeightedLineFit variance;  // against the level u
   if (!out->residual_std.empty())
     for (int c = 0; c < C; ++c)
       for (int k = 0; k + 1 < K; ++k) {
@@ -1003,21 +1004,14 @@ void Solver::residual_statistics(ResponseCurve* out) {
         const double u = grid_.knot(k);
         const double slope = (g_[c][k + 1] - g_[c][k]) / grid_.step;
         if (tot.cnt[b] < kMinCount || u <= window_.floor_dn || u >= window_.u_saturation() || !(slope > 0.0)) continue;
-        const double v = std::pow(out->residual_std[c][k] / slope, 2);
-        const double w = static_cast<double>(tot.cnt[b]);
-        sw += w;
-        su += w * u;
-        sv += w * v;
-        suu += w * u * u;
-        suv += w * u * v;
+        variance.add(u, std::pow(out->residual_std[c][k] / slope, 2), static_cast<double>(tot.cnt[b]));
       }
-  const double det = sw * suu - su * su;
-  if (det > 0.0) {
-    double b = (sw * suv - su * sv) / det;
-    double a = (sv - b * su) / sw;
+  if (variance.determined()) {
+    double b = variance.slope();
+    double a = variance.intercept();
     if (b < 0.0) {  // no measurable shot noise: a constant variance
       b = 0.0;
-      a = sv / sw;
+      a = variance.mean_y();
     }
     out->noise.read_noise_dn = std::sqrt(std::max(a, 1.0 / 12.0));
     out->noise.gain_dn_per_e = b;

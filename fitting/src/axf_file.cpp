@@ -322,34 +322,53 @@ void check_conventions(hid_t root, const std::string& rp, const Problems& p) {
   }
 }
 
+// A section (group) of a paint that a reader checks: opened (a problem when it is missing;
+// the reader then gives nothing) with the problems found before it, so that the reader
+// gives nothing either when reading it found any.
+struct SectionRead {
+  std::string path;
+  Handle group;
+  std::size_t problems_before = 0;
+  explicit operator bool() const { return static_cast<bool>(group); }
+  hid_t id() const { return group.get(); }
+  bool clean(const Problems& p) const { return p.list->size() == problems_before; }
+};
+
+SectionRead open_section(hid_t root, const std::string& rp, const char* name, const Problems& p) {
+  SectionRead s;
+  s.path = h5::join(rp, name);
+  s.group = h5::open_group(root, name, s.path, p);
+  s.problems_before = p.list->size();
+  return s;
+}
+
 std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::string& rp, const Problems& p,
                                                      std::optional<AxfCarPaintStddev>* stddev) {
-  const std::string gp = h5::join(rp, "carpaint");
-  Handle g = h5::open_group(root, "carpaint", gp, p);
+  const SectionRead g = open_section(root, rp, "carpaint", p);
   if (!g) return std::nullopt;
-  const std::size_t before = p.list->size();
+  const std::string& gp = g.path;
   brdf::AxfCarPaintParams c;
-  if (auto v = read_checked(g.get(), "ior", gp, {}, Range::closed(1, 3), p)) c.ior = v->values[0];
-  if (auto v = read_checked(g.get(), "diffuse", gp, {}, Range::non_negative(), p)) c.diffuse = v->values[0];
+  if (auto v = read_checked(g.id(), "ior", gp, {}, Range::closed(1, 3), p)) c.ior = v->values[0];
+  if (auto v = read_checked(g.id(), "diffuse", gp, {}, Range::non_negative(), p)) c.diffuse = v->values[0];
 
   // The lobe count comes from ct_coeffs; the other lobe datasets and lobe_count must agree.
   hsize_t n = 0;
-  auto coeffs = read_lobe_count_dataset(g.get(), "ct_coeffs", gp, Range::non_negative(), p, &n);
+  auto coeffs = read_lobe_count_dataset(g.id(), "ct_coeffs", gp, Range::non_negative(), p, &n);
   std::optional<DoubleArray> spreads, f0s;
   if (n > 0) {
     const std::string why = " (one per lobe of ct_coeffs)";
-    spreads = read_checked(g.get(), "ct_spreads", gp, {n}, Range::open01(), p, why);
-    f0s = read_checked(g.get(), "ct_f0s", gp, {n}, Range::open01(), p, why);
+    spreads = read_checked(g.id(), "ct_spreads", gp, {n}, Range::open01(), p, why);
+    f0s = read_checked(g.id(), "ct_f0s", gp, {n}, Range::open01(), p, why);
   } else {
     // Still report what is wrong with them on their own.
-    h5::read_doubles(g.get(), "ct_spreads", h5::join(gp, "ct_spreads"), p);
-    h5::read_doubles(g.get(), "ct_f0s", h5::join(gp, "ct_f0s"), p);
+    h5::read_doubles(g.id(), "ct_spreads", h5::join(gp, "ct_spreads"), p);
+    h5::read_doubles(g.id(), "ct_f0s", h5::join(gp, "ct_f0s"), p);
   }
   if (coeffs && spreads && f0s)
     for (hsize_t k = 0; k < n; ++k) c.lobes.push_back({coeffs->values[k], spreads->values[k], f0s->values[k]});
 
   const std::string tp = h5::join(gp, "colour_table");
-  auto table = h5::read_doubles(g.get(), "colour_table", tp, p);
+  auto table = h5::read_doubles(g.id(), "colour_table", tp, p);
   if (table) {
     const auto& d = table->dims;
     if (d.size() != 3 || d[2] != 3 || d[0] < 1 || d[1] < 1 || d[0] > 1024 || d[1] > 1024) {
@@ -359,7 +378,7 @@ std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::stri
       table.reset();
     }
   }
-  if (auto s = read_checked(g.get(), "colour_table_scale", gp, {}, Range::positive(), p)) c.chi.scale = s->values[0];
+  if (auto s = read_checked(g.id(), "colour_table_scale", gp, {}, Range::positive(), p)) c.chi.scale = s->values[0];
   if (table) {
     const hsize_t nh = table->dims[0], ni = table->dims[1];
     c.chi.theta_h_samples = static_cast<int>(nh);
@@ -369,7 +388,7 @@ std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::stri
       c.chi.rgb[i] = brdf::Rgb(table->values[3 * i], table->values[3 * i + 1], table->values[3 * i + 2]);
     // The sample positions must be the half-texel centres the indexing convention states.
     auto check_axis = [&](const std::string& name, hsize_t count, const char* axis) {
-      auto a = read_checked(g.get(), name, gp, {count}, Range::closed(0, kHalfPi), p,
+      auto a = read_checked(g.id(), name, gp, {count}, Range::closed(0, kHalfPi), p,
                             fmt::format(" (one per {} sample of colour_table)", axis));
       if (!a) return;
       const auto expect = theta_samples(static_cast<int>(count));
@@ -384,21 +403,21 @@ std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::stri
     check_axis("colour_table_theta_h_rad", nh, "theta_h");
     check_axis("colour_table_theta_i_rad", ni, "theta_i");
   } else {
-    h5::read_doubles(g.get(), "colour_table_theta_h_rad", h5::join(gp, "colour_table_theta_h_rad"), p);
-    h5::read_doubles(g.get(), "colour_table_theta_i_rad", h5::join(gp, "colour_table_theta_i_rad"), p);
+    h5::read_doubles(g.id(), "colour_table_theta_h_rad", h5::join(gp, "colour_table_theta_h_rad"), p);
+    h5::read_doubles(g.id(), "colour_table_theta_i_rad", h5::join(gp, "colour_table_theta_i_rad"), p);
   }
   // Standard deviations: all five or none.
   const std::vector<std::string> std_names = {"ior_std", "diffuse_std", "ct_coeffs_std", "ct_spreads_std",
                                               "ct_f0s_std"};
   int present = 0;
-  for (const auto& sn : std_names) present += h5::exists(g.get(), sn, h5::join(gp, sn), p) ? 1 : 0;
+  for (const auto& sn : std_names) present += h5::exists(g.id(), sn, h5::join(gp, sn), p) ? 1 : 0;
   if (present > 0 && n > 0) {
     const std::string swhy = " (the shape of the parameter)";
-    auto is = read_checked(g.get(), "ior_std", gp, {}, Range::non_negative(), p, swhy);
-    auto ds = read_checked(g.get(), "diffuse_std", gp, {}, Range::non_negative(), p, swhy);
-    auto cs = read_checked(g.get(), "ct_coeffs_std", gp, {n}, Range::non_negative(), p, swhy);
-    auto ss = read_checked(g.get(), "ct_spreads_std", gp, {n}, Range::non_negative(), p, swhy);
-    auto fs = read_checked(g.get(), "ct_f0s_std", gp, {n}, Range::non_negative(), p, swhy);
+    auto is = read_checked(g.id(), "ior_std", gp, {}, Range::non_negative(), p, swhy);
+    auto ds = read_checked(g.id(), "diffuse_std", gp, {}, Range::non_negative(), p, swhy);
+    auto cs = read_checked(g.id(), "ct_coeffs_std", gp, {n}, Range::non_negative(), p, swhy);
+    auto ss = read_checked(g.id(), "ct_spreads_std", gp, {n}, Range::non_negative(), p, swhy);
+    auto fs = read_checked(g.id(), "ct_f0s_std", gp, {n}, Range::non_negative(), p, swhy);
     if (is && ds && cs && ss && fs) {
       AxfCarPaintStddev sd;
       sd.ior = is->values[0];
@@ -407,27 +426,26 @@ std::optional<brdf::AxfCarPaintParams> read_carpaint(hid_t root, const std::stri
       *stddev = sd;
     }
   }
-  if (p.list->size() != before) return std::nullopt;
+  if (!g.clean(p)) return std::nullopt;
   return c;
 }
 
 std::optional<AxfCookTorrance> read_cook_torrance(hid_t root, const std::string& rp, const Problems& p) {
-  const std::string gp = h5::join(rp, "cook_torrance");
-  Handle g = h5::open_group(root, "cook_torrance", gp, p);
+  const SectionRead g = open_section(root, rp, "cook_torrance", p);
   if (!g) return std::nullopt;
-  const std::size_t before = p.list->size();
+  const std::string& gp = g.path;
   AxfCookTorrance ct;
   hsize_t n = 0;
-  auto m = read_lobe_count_dataset(g.get(), "m", gp, Range::open01(), p, &n);
+  auto m = read_lobe_count_dataset(g.id(), "m", gp, Range::open01(), p, &n);
   const std::string why = " (one per lobe of m)";
-  auto kd = read_checked(g.get(), "kd", gp, {3}, Range::non_negative(), p);
+  auto kd = read_checked(g.id(), "kd", gp, {3}, Range::non_negative(), p);
   std::optional<DoubleArray> ks, r;
   if (n > 0) {
-    ks = read_checked(g.get(), "ks", gp, {n, 3}, Range::non_negative(), p, why);
-    r = read_checked(g.get(), "r", gp, {n}, Range::open01(), p, why);
+    ks = read_checked(g.id(), "ks", gp, {n, 3}, Range::non_negative(), p, why);
+    r = read_checked(g.id(), "r", gp, {n}, Range::open01(), p, why);
   } else {
-    h5::read_doubles(g.get(), "ks", h5::join(gp, "ks"), p);
-    h5::read_doubles(g.get(), "r", h5::join(gp, "r"), p);
+    h5::read_doubles(g.id(), "ks", h5::join(gp, "ks"), p);
+    h5::read_doubles(g.id(), "r", h5::join(gp, "r"), p);
   }
   if (kd) ct.params.kd = brdf::Rgb(kd->values[0], kd->values[1], kd->values[2]);
   if (m && ks && r)
@@ -438,13 +456,13 @@ std::optional<AxfCookTorrance> read_cook_torrance(hid_t root, const std::string&
   // Standard deviations: all four or none.
   const std::vector<std::string> std_names = {"kd_std", "ks_std", "m_std", "r_std"};
   int present = 0;
-  for (const auto& s : std_names) present += h5::exists(g.get(), s, h5::join(gp, s), p) ? 1 : 0;
+  for (const auto& s : std_names) present += h5::exists(g.id(), s, h5::join(gp, s), p) ? 1 : 0;
   if (present > 0 && n > 0) {
     const std::string swhy = " (the shape of the parameter)";
-    auto kds = read_checked(g.get(), "kd_std", gp, {3}, Range::non_negative(), p, swhy);
-    auto kss = read_checked(g.get(), "ks_std", gp, {n, 3}, Range::non_negative(), p, swhy);
-    auto ms = read_checked(g.get(), "m_std", gp, {n}, Range::non_negative(), p, swhy);
-    auto rs = read_checked(g.get(), "r_std", gp, {n}, Range::non_negative(), p, swhy);
+    auto kds = read_checked(g.id(), "kd_std", gp, {3}, Range::non_negative(), p, swhy);
+    auto kss = read_checked(g.id(), "ks_std", gp, {n, 3}, Range::non_negative(), p, swhy);
+    auto ms = read_checked(g.id(), "m_std", gp, {n}, Range::non_negative(), p, swhy);
+    auto rs = read_checked(g.id(), "r_std", gp, {n}, Range::non_negative(), p, swhy);
     if (kds && kss && ms && rs) {
       CookTorranceStddev sd;
       sd.kd = brdf::Rgb(kds->values[0], kds->values[1], kds->values[2]);
@@ -454,23 +472,22 @@ std::optional<AxfCookTorrance> read_cook_torrance(hid_t root, const std::string&
       ct.stddev = sd;
     }
   }
-  if (p.list->size() != before) return std::nullopt;
+  if (!g.clean(p)) return std::nullopt;
   return ct;
 }
 
 std::optional<brdf::FlakeSpec> read_flakes(hid_t root, const std::string& rp, std::size_t lobe_count,
                                            const Problems& p) {
-  const std::string gp = h5::join(rp, "flakes");
-  Handle g = h5::open_group(root, "flakes", gp, p);
+  const SectionRead g = open_section(root, rp, "flakes", p);
   if (!g) return std::nullopt;
-  const std::size_t before = p.list->size();
+  const std::string& gp = g.path;
   brdf::FlakeSpec f;
-  if (auto v = read_checked(g.get(), "density", gp, {}, Range::positive(), p)) f.density = v->values[0];
-  if (auto v = read_checked(g.get(), "roughness", gp, {}, Range::open01(), p)) f.roughness = v->values[0];
-  if (auto v = read_checked(g.get(), "lifetime_deg", gp, {}, Range{0, 45, true, false}, p))
+  if (auto v = read_checked(g.id(), "density", gp, {}, Range::positive(), p)) f.density = v->values[0];
+  if (auto v = read_checked(g.id(), "roughness", gp, {}, Range::open01(), p)) f.roughness = v->values[0];
+  if (auto v = read_checked(g.id(), "lifetime_deg", gp, {}, Range{0, 45, true, false}, p))
     f.lifetime_deg = v->values[0];
   const std::string lp = h5::join(gp, "lobes");
-  if (auto l = h5::read_ints(g.get(), "lobes", lp, p)) {
+  if (auto l = h5::read_ints(g.id(), "lobes", lp, p)) {
     if (l->dims.size() != 1) {
       p.add(lp, "wrong shape " + shape_text(l->dims) + ", expected [K] (1-based lobe numbers)");
     } else {
@@ -489,19 +506,18 @@ std::optional<brdf::FlakeSpec> read_flakes(hid_t root, const std::string& rp, st
       }
     }
   }
-  if (p.list->size() != before) return std::nullopt;
+  if (!g.clean(p)) return std::nullopt;
   return f;
 }
 
 std::optional<AxfFitQuality> read_fit_quality(hid_t root, const std::string& rp, const Problems& p) {
-  const std::string gp = h5::join(rp, "fit_quality");
-  Handle g = h5::open_group(root, "fit_quality", gp, p);
+  const SectionRead g = open_section(root, rp, "fit_quality", p);
   if (!g) return std::nullopt;
-  const std::size_t before = p.list->size();
+  const std::string& gp = g.path;
   AxfFitQuality q;
-  if (auto v = read_checked(g.get(), "log_rms", gp, {}, Range::non_negative(), p)) q.log_rms = v->values[0];
+  if (auto v = read_checked(g.id(), "log_rms", gp, {}, Range::non_negative(), p)) q.log_rms = v->values[0];
   const std::string bp = h5::join(gp, "bins_used");
-  if (auto b = h5::read_ints(g.get(), "bins_used", bp, p)) {
+  if (auto b = h5::read_ints(g.id(), "bins_used", bp, p)) {
     if (!b->dims.empty())
       p.add(bp, "wrong shape " + shape_text(b->dims) + ", expected a scalar");
     else if (b->values[0] < 0)
@@ -509,13 +525,13 @@ std::optional<AxfFitQuality> read_fit_quality(hid_t root, const std::string& rp,
     else
       q.bins_used = b->values[0];
   }
-  if (auto c = h5::read_attr_int(g.get(), "converged", gp, p)) {
+  if (auto c = h5::read_attr_int(g.id(), "converged", gp, p)) {
     if (*c != 0 && *c != 1)
       p.add(h5::attr_path(gp, "converged"), fmt::format("value {} is not 0 or 1", *c));
     else
       q.converged = *c == 1;
   }
-  if (auto s = h5::read_attr_string(g.get(), "residual_json", gp, p)) {
+  if (auto s = h5::read_attr_string(g.id(), "residual_json", gp, p)) {
     try {
       q.residual = Json::parse(*s);
       if (!q.residual.is_object()) p.add(h5::attr_path(gp, "residual_json"), "is not a JSON object");
@@ -523,7 +539,7 @@ std::optional<AxfFitQuality> read_fit_quality(hid_t root, const std::string& rp,
       p.add(h5::attr_path(gp, "residual_json"), std::string("is not valid JSON: ") + e.what());
     }
   }
-  if (p.list->size() != before) return std::nullopt;
+  if (!g.clean(p)) return std::nullopt;
   return q;
 }
 

@@ -333,12 +333,7 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
   for (Start& s : starts) {
     s.p.a() = std::max(s.p.a(), 1e-4 * std::numbers::pi * mean_value);  // a positive model everywhere
     AxfSolved r = solve_axf(sub, s.p, K, o, std::max(10, o.max_iterations / 3));
-    StartReport rep;
-    rep.origin = s.origin;
-    rep.initial_cost = r.summary.initial_cost;
-    rep.final_cost = r.summary.final_cost;
-    rep.iterations = static_cast<int>(r.summary.iterations.size()) - 1;
-    rep.converged = r.summary.termination_type == ceres::CONVERGENCE;
+    const StartReport rep = detail::start_report(s.origin, r.summary);
     sum.starts.push_back(rep);
     spdlog::debug("axf fit start {}: cost {:.6g} -> {:.6g} in {} iterations", rep.origin, rep.initial_cost,
                   rep.final_cost, rep.iterations);

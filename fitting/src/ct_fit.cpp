@@ -28,6 +28,7 @@ namespace {
 using detail::for_each_combination;
 using detail::nnls_small;
 using detail::roughness_grid;
+using detail::start_report;
 using detail::subsample;
 using detail::thread_count;
 
@@ -492,12 +493,7 @@ CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& o) {
   for (GridStart& s : starts) {
     ensure_positive(s.params, sub);
     Solved r = solve(data, sub, s.params, o, std::max(10, o.max_iterations / 3));
-    StartReport rep;
-    rep.origin = s.origin;
-    rep.initial_cost = r.summary.initial_cost;
-    rep.final_cost = r.summary.final_cost;
-    rep.iterations = static_cast<int>(r.summary.iterations.size()) - 1;
-    rep.converged = r.summary.termination_type == ceres::CONVERGENCE;
+    const StartReport rep = start_report(s.origin, r.summary);
     fit.summary.starts.push_back(rep);
     spdlog::debug("  start {}: cost {:.6g} -> {:.6g} in {} iterations ({})", rep.origin, rep.initial_cost,
                   rep.final_cost, rep.iterations, elapsed());

@@ -84,6 +84,16 @@ std::vector<const FitBin*> subsample(const FitData& data, std::size_t target) {
   return out;
 }
 
+StartReport start_report(const std::string& origin, const ceres::Solver::Summary& summary) {
+  StartReport r;
+  r.origin = origin;
+  r.initial_cost = summary.initial_cost;
+  r.final_cost = summary.final_cost;
+  r.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  r.converged = summary.termination_type == ceres::CONVERGENCE;
+  return r;
+}
+
 int thread_count(int requested) {
   return requested > 0 ? requested : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }

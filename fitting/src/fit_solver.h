@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "paintlab/fitting/ct_fit.h"
 #include "paintlab/fitting/fit_data.h"
 
 namespace paintlab::fit::detail {
@@ -37,6 +38,9 @@ double nnls_small(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, Eigen::Vec
 std::vector<const FitBin*> subsample(const FitData& data, std::size_t target);
 
 int thread_count(int requested);  // 0 -> all cores
+
+// What fit.json records of one start: its costs, iterations and whether it converged.
+StartReport start_report(const std::string& origin, const ceres::Solver::Summary& summary);
 
 // One parameter block of a solved problem for covariance_stddev(): the coordinates held
 // fixed (at a bound, or undetermined) and, on return, the standard deviations (0 for fixed
