@@ -197,11 +197,8 @@ TEST(ModbusSim, SettleTimeoutIsARetryableErrorNotAHang) {
 TEST(ModbusSim, ExceptionReplyNamesRegisterAndException) {
   Rig rig;
   ModbusTurntable table(rig.cfg, rig.clock);
-  ModbusFaults f;
-  f.exception_code = 2;  // illegal data address
-  f.exceptions = -1;
-  f.exception_address = 0x005C;
-  rig.server->set_faults(f);
+  // Illegal data address, for ever, at the target position register.
+  rig.server->set_faults({.exception_code = 2, .exceptions = -1, .exception_address = 0x005C});
   auto r = table.move_to(10.0);
   ASSERT_FALSE(r);
   EXPECT_FALSE(r.error().retryable());
@@ -214,10 +211,7 @@ TEST(ModbusSim, ExceptionReplyNamesRegisterAndException) {
 TEST(ModbusSim, BusyExceptionIsRetried) {
   Rig rig;
   ModbusTurntable table(rig.cfg, rig.clock);
-  ModbusFaults f;
-  f.exception_code = 6;  // server busy
-  f.exceptions = 2;
-  rig.server->set_faults(f);
+  rig.server->set_faults({.exception_code = 6, .exceptions = 2});  // server busy, twice
   auto a = table.angle_deg();
   ASSERT_TRUE(a) << a.error().what();
   EXPECT_EQ(table.retry_count(), 2);
@@ -227,9 +221,7 @@ TEST(ModbusSim, TimeoutsAreRetriedWithBackoff) {
   Rig rig;
   ModbusTurntable table(rig.cfg, rig.clock);
   ASSERT_TRUE(table.connect());
-  ModbusFaults f;
-  f.timeouts = 2;
-  rig.server->set_faults(f);
+  rig.server->set_faults({.timeouts = 2});
   double v0 = rig.clock.now_s();
   auto a = table.angle_deg();
   ASSERT_TRUE(a) << a.error().what();
@@ -242,9 +234,7 @@ TEST(ModbusSim, TimeoutsAreRetriedWithBackoff) {
 TEST(ModbusSim, PersistentTimeoutFailsRetryableWithinBoundedTime) {
   Rig rig;
   ModbusTurntable table(rig.cfg, rig.clock);
-  ModbusFaults f;
-  f.timeouts = -1;
-  rig.server->set_faults(f);
+  rig.server->set_faults({.timeouts = -1});
   double w0 = wall_s();
   auto a = table.angle_deg();
   double took = wall_s() - w0;
@@ -260,9 +250,7 @@ TEST(ModbusSim, DroppedConnectionReconnects) {
   Rig rig;
   ModbusTurntable table(rig.cfg, rig.clock);
   ASSERT_TRUE(table.connect());
-  ModbusFaults f;
-  f.drops = 1;
-  rig.server->set_faults(f);
+  rig.server->set_faults({.drops = 1});
   ASSERT_TRUE(table.move_to(30.0));
   auto a = table.wait_settled(10.0);
   ASSERT_TRUE(a) << a.error().what();
@@ -283,9 +271,7 @@ TEST(ModbusSim, ServerGoneIsRetryableConnectionError) {
 TEST(ModbusSim, AlarmStopsMovesUntilReset) {
   Rig rig;
   ModbusTurntable table(rig.cfg, rig.clock);
-  ModbusFaults f;
-  f.alarm_code = 0x30;
-  rig.server->set_faults(f);
+  rig.server->set_faults({.alarm_code = 0x30});
   auto st = table.status();
   ASSERT_TRUE(st);
   EXPECT_EQ(st->alarm_code, 0x30);

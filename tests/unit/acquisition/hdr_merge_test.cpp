@@ -97,14 +97,16 @@ ZStats z_stats(const acq::HdrResult& r, const ImageF& truth, const std::string& 
   return z;
 }
 
-calib::ResponseCurve linear_response(const Camera& cam) {
+// The test camera as a linear camera: its black level, noise floor, saturation and noise.
+acq::HdrCalibration linear_calibration(const Camera& cam) {
   calib::ValueWindow w;
   w.black_dn = cam.black;
   w.floor_dn = 3.0 * cam.read_dn;
   w.saturation_dn = std::min(cam.black + cam.full_dn, std::ldexp(1.0, cam.bits) - 1.0) - 100.0;
-  auto r = calib::ResponseCurve::identity(cam.bits, 1, w);
-  r.noise = {cam.read_dn, cam.gain_dn_per_e, "test camera"};
-  return r;
+  acq::HdrCalibration cal;
+  cal.response = calib::ResponseCurve::identity(cam.bits, 1, w);
+  cal.response->noise = {cam.read_dn, cam.gain_dn_per_e, "test camera"};
+  return cal;
 }
 
 }  // namespace
@@ -114,8 +116,7 @@ TEST(HdrMerge, SixteenBitRadianceWithinTheNoiseAndVarianceMatchesTheScatter) {
   // Radiance (DN/s) over 6 decades; 12 exposures x2 cover them.
   const ImageF x = log_uniform(96, 64, 1, 30.0, 3e7, test::seed());
   const Stack s = bracket(cam, x, 12, 1e-3, 2.0, test::seed() + 1);
-  acq::HdrCalibration cal;
-  cal.response = linear_response(cam);
+  const acq::HdrCalibration cal = linear_calibration(cam);
   const auto frames = s.frames();
   const acq::HdrResult r = acq::merge_hdr(frames, 16, cal);
   EXPECT_EQ(r.stats.weighting, "inverse-variance");
@@ -135,8 +136,7 @@ TEST(HdrMerge, InvalidWhereNoExposureMeasuresAndValuesAreBounds) {
   x.at(2, 0) = 1e-2f;  // below the noise floor at the longest
   x.at(3, 0) = 1e5f;
   const Stack s = bracket(cam, x, 6, 1e-3, 2.0, test::seed());
-  acq::HdrCalibration cal;
-  cal.response = linear_response(cam);
+  const acq::HdrCalibration cal = linear_calibration(cam);
   const auto frames = s.frames();
   const acq::HdrResult r = acq::merge_hdr(frames, 16, cal);
   const ImageF& v = r.image.plane("valid");
@@ -161,8 +161,7 @@ TEST(HdrMerge, StreamingEqualsBatch) {
   Camera cam;
   const ImageF x = log_uniform(50, 30, 1, 30.0, 3e7, test::seed());
   const Stack s = bracket(cam, x, 8, 1e-3, 2.5, test::seed() + 2);
-  acq::HdrCalibration cal;
-  cal.response = linear_response(cam);
+  const acq::HdrCalibration cal = linear_calibration(cam);
   acq::HdrOptions opt;
   opt.tile_values = 128;  // several tiles, one partial
   acq::HdrMerger merger(cal, opt, 50, 30, 1, 16);
@@ -363,13 +362,8 @@ TEST(HdrMerge, DarkFrameAndFlatFieldAreApplied) {
 }
 
 TEST(HdrMerge, TwelveBitNonlinearCameraThroughItsResponse) {
-  Camera cam;
-  cam.bits = 12;
-  cam.black = 64.0;
-  cam.read_dn = 1.5;
-  cam.gain_dn_per_e = 0.2;
-  cam.full_dn = 4000.0;
-  cam.f = [](double s) { return 4000.0 * std::pow(s / 4000.0, 0.8); };
+  const Camera cam{.bits = 12, .black = 64.0, .read_dn = 1.5, .gain_dn_per_e = 0.2, .full_dn = 4000.0,
+                   .f = [](double s) { return 4000.0 * std::pow(s / 4000.0, 0.8); }};
   // The response the calibration would have found: g = f^-1 on knots every 4 DN.
   calib::ResponseCurve resp;
   resp.bit_depth = 12;
@@ -410,13 +404,8 @@ TEST(HdrMerge, TwelveBitNonlinearCameraThroughItsResponse) {
 
 TEST(HdrMerge, MatchesOpenCvMergeRobertsonWithTheSameCurveAndWeights) {
   // 8-bit RGB, gamma camera; OpenCV gets our curve as its response table.
-  Camera cam;
-  cam.bits = 8;
-  cam.black = 0.0;
-  cam.read_dn = 0.0;
-  cam.gain_dn_per_e = 0.0;
-  cam.full_dn = 255.0;
-  cam.f = [](double s) { return 255.0 * std::pow(std::max(s, 0.0) / 255.0, 1.0 / 2.2); };
+  const Camera cam{.bits = 8, .black = 0.0, .read_dn = 0.0, .gain_dn_per_e = 0.0, .full_dn = 255.0,
+                   .f = [](double s) { return 255.0 * std::pow(std::max(s, 0.0) / 255.0, 1.0 / 2.2); }};
   const ImageF x = log_uniform(64, 48, 3, 1.0, 1e5, test::seed());
   const Stack s = bracket(cam, x, 10, 1e-3, 2.0, test::seed() + 6);
   calib::ValueWindow w;
@@ -470,8 +459,7 @@ TEST(HdrMerge, MatchesOpenCvMergeRobertsonWithTheSameCurveAndWeights) {
 
 TEST(HdrMerge, RejectsFramesAndCalibrationsThatDoNotFit) {
   Camera cam;
-  acq::HdrCalibration cal;
-  cal.response = linear_response(cam);
+  const acq::HdrCalibration cal = linear_calibration(cam);
   Image<std::uint16_t> a(8, 8, 1, 1000), b(9, 8, 1, 1000), rgb(8, 8, 3, 1000);
   std::vector<calib::StackFrame> mixed{{&a, 0.01}, {&b, 0.02}};
   EXPECT_THAT(test::error_message<DataError>([&] { acq::merge_hdr(mixed, 16, cal); }),

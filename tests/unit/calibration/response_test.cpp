@@ -158,11 +158,8 @@ TEST(Response, EightBitGammaCurveWithinOnePercentByDebevec) {
   // Robertson's linear-domain form is printed for comparison (docs/radiometry.md).
   calib::radiometry_test::GammaCamera cam;
   auto stack = gamma_stack(cam, 1);
-  auto frames = stack.frames();
-  ResponseOptions opt;
-  opt.method = ResponseMethod::Debevec;
-  ResponseCurve r = recover_response(frames, 8, opt);
-  ResponseCurve rob = recover_response(frames, 8, {});
+  const ResponseCurve r = recover_response(stack.frames(), 8, {.method = ResponseMethod::Debevec});
+  const ResponseCurve rob = recover_response(stack.frames(), 8, {});
   EXPECT_EQ(r.weighting, Weighting::Hat);
   EXPECT_EQ(r.knots_dn.size(), 256u);
   EXPECT_DOUBLE_EQ(r.window.saturation_dn, 255.0);
@@ -193,10 +190,7 @@ TEST(Response, EightBitGammaCurveWithinOnePercentByDebevec) {
 TEST(Response, DebevecRgbGammaCurve) {
   calib::radiometry_test::GammaCamera cam;
   auto stack = gamma_stack(cam, 3);
-  auto frames = stack.frames();
-  ResponseOptions opt;
-  opt.method = ResponseMethod::Debevec;
-  ResponseCurve r = recover_response(frames, 8, opt);
+  const ResponseCurve r = recover_response(stack.frames(), 8, {.method = ResponseMethod::Debevec});
   for (int c = 0; c < 3; ++c) {
     const double err = calib::radiometry_test::max_relative_error(r, c, [&](double u) { return cam.truth(u); }, 13, 250);
     std::printf("8-bit gamma 2.2, Debevec, channel %d: max relative error %.3f %%\n", c, 100 * err);

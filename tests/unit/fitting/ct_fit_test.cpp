@@ -16,21 +16,8 @@ namespace {
 
 using test::NearRel;
 
-brdf::CookTorranceParams silver_params() {
-  brdf::CookTorranceParams p;
-  p.kd = brdf::Rgb(0.030, 0.032, 0.035);
-  p.lobes = {{brdf::Rgb(0.060, 0.062, 0.066), 0.38, 0.85},
-             {brdf::Rgb(0.045, 0.046, 0.048), 0.16, 0.55},
-             {brdf::Rgb(0.15, 0.15, 0.15), 0.015, 0.04}};
-  return p;
-}
-
-brdf::CookTorranceParams blue_params() {
-  brdf::CookTorranceParams p;
-  p.kd = brdf::Rgb(0.030, 0.060, 0.300);
-  p.lobes = {{brdf::Rgb(0.010, 0.010, 0.010), 0.30, 0.04}, {brdf::Rgb(0.15, 0.15, 0.15), 0.02, 0.04}};
-  return p;
-}
+using test_support::blue_params;
+using test_support::silver_params;
 
 void print_fit(const char* what, const CookTorranceFit& fit) {
   const auto& p = fit.params;

@@ -30,16 +30,11 @@ namespace {
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-brdf::CookTorranceParams blue() {
-  brdf::CookTorranceParams p;
-  p.kd = brdf::Rgb(0.030, 0.060, 0.300);
-  p.lobes = {{brdf::Rgb(0.010, 0.010, 0.010), 0.30, 0.04}, {brdf::Rgb(0.15, 0.15, 0.15), 0.02, 0.04}};
-  return p;
-}
+using test_support::blue_params;
 
 TEST(FitCli, FitsAMerlFileAndWritesFitJson) {
   test::TempDir dir;
-  const brdf::CookTorranceParams truth = blue();
+  const brdf::CookTorranceParams truth = blue_params();
   // A MERL file as public tables come: measured values, no statistics, with 1 %
   // multiplicative noise; one bin in 8 (the others missing, -1 in the file) keeps the test fast.
   brdf::MerlTable t = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 8);
@@ -77,7 +72,7 @@ TEST(FitCli, FitsAMerlFileAndWritesFitJson) {
 // fit says so at once and fits the measured ones only (the same result as the unfilled table).
 TEST(FitCli, AFilledTableIsFittedOnItsMeasuredBinsAndSaysSo) {
   test::TempDir dir;
-  const brdf::CookTorranceParams truth = blue();
+  const brdf::CookTorranceParams truth = blue_params();
   brdf::MerlTable t = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 8);
   const std::size_t measured = t.count_in_state(brdf::BinState::Measured);
   const HoleFillReport filled = fill_holes(t);

@@ -23,12 +23,10 @@ using test::NearRel;
 
 // kd 0.06; lobes m 0.38, 0.17, 0.013 with r 0.9; ks of plausible size.
 brdf::CookTorranceParams conv_guenther_params() {
-  brdf::CookTorranceParams p;
-  p.kd = brdf::Rgb(0.060, 0.060, 0.060);
-  p.lobes = {{brdf::Rgb(0.060, 0.060, 0.060), 0.38, 0.9},
-             {brdf::Rgb(0.050, 0.050, 0.050), 0.17, 0.9},
-             {brdf::Rgb(0.5, 0.5, 0.5), 0.013, 0.9}};
-  return p;
+  return {brdf::Rgb(0.060, 0.060, 0.060),
+          {{brdf::Rgb(0.060, 0.060, 0.060), 0.38, 0.9},
+           {brdf::Rgb(0.050, 0.050, 0.050), 0.17, 0.9},
+           {brdf::Rgb(0.5, 0.5, 0.5), 0.013, 0.9}}};
 }
 
 void conv_print(const char* what, const CookTorranceFit& f) {

@@ -130,11 +130,7 @@ TEST(Preview, WhiteFurnaceUnderAUniformEnvironment) {
   const brdf::Lambertian lambert(Rgb::Constant(albedo));
   ImageF sky(32, 16, 3, 1.0f);
   const EnvironmentMap env(sky, 1.0);
-  PreviewOptions o;
-  o.size_px = 32;
-  o.point_light = false;
-  o.environment_samples = 64;
-  const Preview p = render_preview(lambert, o, &env);
+  const Preview p = render_preview(lambert, {.size_px = 32, .point_light = false, .environment_samples = 64}, &env);
   double sum = 0;
   int n = 0;
   for (int y = 0; y < 32; ++y)
@@ -182,11 +178,7 @@ TEST(Preview, GlossyPaintReflectsABrightSpotOfTheEnvironment) {
     for (int x : {0, 1, 62, 63})
       for (int c = 0; c < 3; ++c) map.at(x, y, c) = 200.0f;
   const EnvironmentMap env(map, 1.0);
-  PreviewOptions o;
-  o.size_px = 48;
-  o.point_light = false;
-  o.environment_samples = 32;
-  const Preview p = render_preview(glossy, o, &env);
+  const Preview p = render_preview(glossy, {.size_px = 48, .point_light = false, .environment_samples = 32}, &env);
   EXPECT_NEAR(p.peak_x, 24, 3);
   EXPECT_NEAR(p.peak_y, 24, 3);
   EXPECT_GT(p.peak.maxCoeff(), 20 * p.linear.at(6, 24, 0));  // the centre is far brighter than the rim

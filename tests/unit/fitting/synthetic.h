@@ -8,6 +8,7 @@
 #include <random>
 
 #include "paintlab/brdf/brdf.h"
+#include "paintlab/brdf/cook_torrance.h"
 #include "paintlab/brdf/merl.h"
 #include "paintlab/brdf/pearlescent.h"
 #include "paintlab/brdf/rusinkiewicz.h"
@@ -74,6 +75,19 @@ Options quick_fit(int lobes) {
   opt.random_starts = 1;
   opt.start_bins = 6000;
   return opt;
+}
+
+// Two Cook-Torrance paints of the fit tests: a silver metallic with three lobes (broad,
+// medium, a narrow clear-coat peak) and a deep-blue solid with two.
+inline brdf::CookTorranceParams silver_params() {
+  return {brdf::Rgb(0.030, 0.032, 0.035),
+          {{brdf::Rgb(0.060, 0.062, 0.066), 0.38, 0.85},
+           {brdf::Rgb(0.045, 0.046, 0.048), 0.16, 0.55},
+           {brdf::Rgb(0.15, 0.15, 0.15), 0.015, 0.04}}};
+}
+inline brdf::CookTorranceParams blue_params() {
+  return {brdf::Rgb(0.030, 0.060, 0.300),
+          {{brdf::Rgb(0.010, 0.010, 0.010), 0.30, 0.04}, {brdf::Rgb(0.15, 0.15, 0.15), 0.02, 0.04}}};
 }
 
 inline brdf::PearlescentParams white_pearl() {

@@ -45,9 +45,7 @@ TEST(SceneRender, EveryNamedSceneHasTheCamerasSizeAndTheRequestedChannels) {
 
 TEST(SceneRender, TheFlatFieldReachesHalfTheFullWellAtTheGivenExposureAndTheDarkFieldIsBlack) {
   sim::SimWorld world(sim::test::small_config());
-  sim::SceneRequest q;
-  q.kind = sim::SceneKind::Flat;
-  q.exposure_s = 0.004;
+  sim::SceneRequest q{.kind = sim::SceneKind::Flat, .exposure_s = 0.004};
   const sim::SceneRender flat = sim::render_scene(world, q);
   EXPECT_NEAR(image_centre(flat.radiance), world.radiance_for_fill(0.5, 0.004), 1e-6 * world.radiance_for_fill(0.5, 0.004));
   EXPECT_FLOAT_EQ(peak_of(flat.radiance), static_cast<float>(world.radiance_for_fill(0.5, 0.004)));
@@ -165,9 +163,7 @@ TEST(SimRigShow, AFixedSceneIsExposedThroughTheSensorWithTheCamerasBlackLevel) {
 
 TEST(SceneRender, TheExrCarriesTheChannelsAndSaysWhatItShows) {
   sim::SimWorld world(sim::test::small_config());
-  sim::SceneRequest q;
-  q.kind = sim::SceneKind::Flat;
-  q.channels = 3;
+  sim::SceneRequest q{.kind = sim::SceneKind::Flat, .channels = 3};
   const sim::SceneRender colour = sim::render_scene(world, q);
   const ExrImage exr = sim::scene_exr(colour, "/lab/rig.toml");
   EXPECT_EQ(exr.names, (std::vector<std::string>{"R", "G", "B"}));
@@ -180,9 +176,7 @@ TEST(SceneRender, TheExrCarriesTheChannelsAndSaysWhatItShows) {
 
 TEST(SceneRender, AnOverexposedFrameCountsItsClippedValues) {
   sim::SimWorld world(sim::test::small_config());
-  sim::SceneRequest q;
-  q.kind = sim::SceneKind::Flat;
-  q.exposure_s = 0.01;  // half the full well in 10 ms
+  sim::SceneRequest q{.kind = sim::SceneKind::Flat, .exposure_s = 0.01};  // half the full well in 10 ms
   const sim::SceneRender flat = sim::render_scene(world, q);
   sim::ExposureSettings e;
   e.exposure_s = 0.01;

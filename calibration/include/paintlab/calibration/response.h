@@ -145,7 +145,7 @@ struct ResponseOptions {
   double smoothness = -1.0;
   // A colour (one value per channel) that marks pixels without data in an image (e.g. the
   // pure-blue registration borders of Debevec's photos); empty: none.
-  std::vector<std::uint16_t> no_data;
+  std::vector<std::uint16_t> no_data{};
 
   void check() const;  // UsageError naming the first violated rule
 };

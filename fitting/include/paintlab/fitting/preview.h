@@ -77,11 +77,11 @@ struct PreviewOptions {
   double light_elevation_deg = 25;  // towards +y, [-89, 89]
   double light_distance = 10;       // in sphere radii, > 1.5
   bool point_light = true;          // false: environment only
-  std::optional<std::filesystem::path> environment;  // equirectangular EXR
+  std::optional<std::filesystem::path> environment{};  // equirectangular EXR
   double environment_intensity = 1; // multiplies the map, > 0
   int environment_samples = 64;     // per strategy and pixel, >= 1
   std::uint64_t seed = 1;
-  ToneMapping tone;
+  ToneMapping tone{};
   void check() const;               // DataError naming the first violated rule
 };
 

@@ -26,13 +26,13 @@ struct SceneRequest {
   double albedo = 0.99;     // the white reference's
   int view = 0;             // which generated board pose (chessboard, charuco): 0, 1, ...
   int views = 0;            // boards: poses generated for this many views (0: view + 1)
-  Chessboard chessboard;    // the chessboard's corners and squares
+  Chessboard chessboard{};  // the chessboard's corners and squares
   // The exposure the lighting is set for: a board's white and the uniform field reach half
   // the full well at the image centre in this time.
   double exposure_s = 0.01;
   int channels = 1;         // 1 (the monochrome camera's mix) or 3 (linear camera RGB)
   bool sparkle = true;      // sphere: flake glints
-  std::string paint_name;   // sphere: named in the description when given
+  std::string paint_name{}; // sphere: named in the description when given
   int threads = 0;          // 0: all cores
   void check() const;       // UsageError naming the field
 };
