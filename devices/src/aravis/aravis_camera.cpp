@@ -32,21 +32,9 @@ struct AravisCamera::Impl {
 
 namespace {
 
-ArvPixelFormat to_arv(PixelFormat f) {
-  switch (f) {
-    case PixelFormat::Mono8: return ARV_PIXEL_FORMAT_MONO_8;
-    case PixelFormat::Mono12: return ARV_PIXEL_FORMAT_MONO_12;
-    case PixelFormat::Mono16: return ARV_PIXEL_FORMAT_MONO_16;
-  }
-  return ARV_PIXEL_FORMAT_MONO_16;
-}
+ArvPixelFormat to_arv(PixelFormat f) { return static_cast<ArvPixelFormat>(pfnc_code(f)); }
 
-std::optional<PixelFormat> from_arv(ArvPixelFormat f) {
-  if (f == ARV_PIXEL_FORMAT_MONO_8) return PixelFormat::Mono8;
-  if (f == ARV_PIXEL_FORMAT_MONO_12) return PixelFormat::Mono12;
-  if (f == ARV_PIXEL_FORMAT_MONO_16) return PixelFormat::Mono16;
-  return std::nullopt;
-}
+std::optional<PixelFormat> from_arv(ArvPixelFormat f) { return pixel_format_from_pfnc(static_cast<std::uint32_t>(f)); }
 
 const char* status_name(ArvBufferStatus s) {
   switch (s) {
@@ -356,7 +344,10 @@ Result<Frame> AravisCamera::capture(double timeout_s) {
   double attempt_wait_s = exposure_s_ + config_.readout_s + config_.frame_timeout_s;
   int failures = 0;
   std::string last;
-  const std::size_t bytes_per_px = format_ == PixelFormat::Mono8 ? 1 : 2;
+  // Unpacked GenICam formats: one byte a value up to 8 bits, else a little-endian 16-bit word;
+  // RGB8 holds three values a pixel.
+  const std::size_t bytes_per_value = bit_depth(format_) > 8 ? 2 : 1;
+  const std::size_t bytes_per_px = bytes_per_value * static_cast<std::size_t>(channels(format_));
   while (failures <= config_.max_retries) {
     // Frames that arrived without our trigger are stale: give their buffers back.
     while (ArvBuffer* stale = arv_stream_try_pop_buffer(impl_->stream)) arv_stream_push_buffer(impl_->stream, stale);
@@ -415,16 +406,14 @@ Result<Frame> AravisCamera::capture(double timeout_s) {
       continue;
     }
     Frame f;
-    f.pixels = Image<std::uint16_t>(w, h, 1);
-    if (bytes_per_px == 1) {
-      const auto* p = static_cast<const std::uint8_t*>(data);
-      std::copy(p, p + static_cast<std::size_t>(w) * h, f.pixels.data());
+    f.pixels = Image<std::uint16_t>(w, h, channels(format_));
+    const auto* p = static_cast<const std::uint8_t*>(data);
+    std::uint16_t* out = f.pixels.data();
+    const std::size_t n = f.pixels.size();
+    if (bytes_per_value == 1) {
+      std::copy(p, p + n, out);
     } else {
-      // GenICam Mono12/Mono16 (unpacked) are little-endian 16-bit words.
-      const auto* p = static_cast<const std::uint8_t*>(data);
-      std::uint16_t* out = f.pixels.data();
-      for (std::size_t i = 0, n = static_cast<std::size_t>(w) * h; i < n; ++i)
-        out[i] = static_cast<std::uint16_t>(p[2 * i] | (p[2 * i + 1] << 8));
+      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<std::uint16_t>(p[2 * i] | (p[2 * i + 1] << 8));
     }
     f.meta.exposure_s = exposure_s_;
     f.meta.gain_db = gain_db_;

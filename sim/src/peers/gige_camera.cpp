@@ -35,23 +35,10 @@ constexpr std::uint32_t kRegSensorWidth = 0x11c;
 constexpr std::uint32_t kRegPixelFormat = 0x128;
 constexpr std::uint32_t kRegBlackLevel = 0x8000;
 
-constexpr std::uint32_t kMono8 = 0x01080001u;
-constexpr std::uint32_t kMono12 = 0x01100005u;
-constexpr std::uint32_t kMono16 = 0x01100007u;
-
-std::uint32_t pfnc(dev::PixelFormat f) {
-  switch (f) {
-    case dev::PixelFormat::Mono8: return kMono8;
-    case dev::PixelFormat::Mono12: return kMono12;
-    case dev::PixelFormat::Mono16: return kMono16;
-  }
-  return kMono16;
-}
-
+// The formats this fake serves: the monochrome ones its XML lists.
 std::optional<dev::PixelFormat> from_pfnc(std::uint32_t v) {
-  if (v == kMono8) return dev::PixelFormat::Mono8;
-  if (v == kMono12) return dev::PixelFormat::Mono12;
-  if (v == kMono16) return dev::PixelFormat::Mono16;
+  const auto f = dev::pixel_format_from_pfnc(v);
+  if (f && dev::channels(*f) == 1 && dev::cfa_pattern(*f) == dev::CfaPattern::None) return f;
   return std::nullopt;
 }
 
@@ -170,7 +157,11 @@ std::string GigeCamera::genicam_xml() {
   x += int_reg("BinningHorizontalReg", 0x108, "RW");
   x += integer("BinningVertical", "BinningVerticalReg", "    <Min>1</Min>\n    <Max>1</Max>\n");
   x += int_reg("BinningVerticalReg", 0x10c, "RW");
-  x += enumeration("PixelFormat", {{"Mono8", kMono8}, {"Mono12", kMono12}, {"Mono16", kMono16}}, "PixelFormatReg");
+  x += enumeration("PixelFormat",
+                   {{"Mono8", dev::pfnc_code(dev::PixelFormat::Mono8)},
+                    {"Mono12", dev::pfnc_code(dev::PixelFormat::Mono12)},
+                    {"Mono16", dev::pfnc_code(dev::PixelFormat::Mono16)}},
+                   "PixelFormatReg");
   x += int_reg("PixelFormatReg", kRegPixelFormat, "RW");
 
   x += "  <Category Name=\"AcquisitionControl\" NameSpace=\"Standard\">\n"
@@ -345,7 +336,7 @@ void GigeCamera::start() {
   arv_fake_camera_write_register(fake, kRegSensorHeight, h);
   arv_fake_camera_write_register(fake, kRegWidth, w);
   arv_fake_camera_write_register(fake, kRegHeight, h);
-  arv_fake_camera_write_register(fake, kRegPixelFormat, pfnc(options_.format));
+  arv_fake_camera_write_register(fake, kRegPixelFormat, dev::pfnc_code(options_.format));
   arv_fake_camera_write_register(fake, kRegBlackLevel, static_cast<std::uint32_t>(std::lround(options_.black_level)));
   // Bootstrap device information (the fake's defaults say "Aravis", "Fake").
   auto put_string = [&](std::uint32_t address, std::size_t length, const std::string& text) {

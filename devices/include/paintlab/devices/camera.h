@@ -3,6 +3,7 @@
 // setters return the value the camera actually applied (read back), and every frame
 // carries the applied values, which later stages must use.
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "paintlab/core/image.h"
@@ -10,12 +11,34 @@
 
 namespace paintlab::dev {
 
-enum class PixelFormat { Mono8, Mono12, Mono16 };
+// GenICam PFNC pixel formats: monochrome, colour-filter-array (Bayer) mosaics in the four
+// arrangements, and packed RGB. Names as GenICam and `paintlab devices` print them.
+enum class PixelFormat {
+  Mono8, Mono12, Mono16,
+  BayerRG8, BayerGR8, BayerGB8, BayerBG8,
+  BayerRG12, BayerGR12, BayerGB12, BayerBG12,
+  BayerRG16, BayerGR16, BayerGB16, BayerBG16,
+  RGB8,
+};
+
+// A Bayer colour filter array as GenICam names it: the colours of the 2x2 block at the
+// image's top-left corner, row by row (RG: R G / G B). OpenCV names the same sensor after the
+// block at row 1, column 1 (GenICam RG is OpenCV's BayerBG): acq::demosaic translates.
+enum class CfaPattern { None, RG, GR, GB, BG };
 
 const char* to_string(PixelFormat f);
-// Parses "Mono8", "Mono12", "Mono16"; throws ConfigError-free DataError otherwise.
+// Parses a name of to_string ("Mono16", "BayerRG12", "RGB8"); DataError listing them otherwise.
 PixelFormat pixel_format_from_string(const std::string& s);
-int bit_depth(PixelFormat f);  // 8, 12, 16
+int bit_depth(PixelFormat f);        // significant bits of each value: 8, 12, 16
+int channels(PixelFormat f);         // values per pixel: 3 for RGB8, else 1 (a Bayer frame is one mosaic)
+CfaPattern cfa_pattern(PixelFormat f);  // None for Mono and RGB8
+const char* to_string(CfaPattern p);  // "none", "RG", "GR", "GB", "BG"
+// The colour (0 R, 1 G, 2 B) that pixel (x, y) of a `p` mosaic records; -1 for None.
+int cfa_colour(CfaPattern p, int x, int y);
+// The format's GenICam PFNC code (what the PixelFormat register and a buffer's header hold;
+// Aravis' ARV_PIXEL_FORMAT_* values), and back (nullopt for a format paintlab does not read).
+std::uint32_t pfnc_code(PixelFormat f);
+std::optional<PixelFormat> pixel_format_from_pfnc(std::uint32_t code);
 
 struct FrameMeta {
   double exposure_s = 0.0;      // applied exposure, read back from the camera
