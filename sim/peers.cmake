@@ -6,6 +6,7 @@ add_library(paintlab_sim_peers STATIC
   ${CMAKE_CURRENT_LIST_DIR}/src/peers/turntable_server.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/peers/gige_camera.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/peers/sim_light.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/src/peers/sim_filter_wheel.cpp
   ${CMAKE_CURRENT_LIST_DIR}/src/peers/sim_rig.cpp)
 target_include_directories(paintlab_sim_peers
   PUBLIC ${CMAKE_CURRENT_LIST_DIR}/include
