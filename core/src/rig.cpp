@@ -34,8 +34,10 @@ const std::vector<std::string>& kinds_for(const std::string& role) {
   static const std::vector<std::string> turntable{"modbus-tcp", "modbus-rtu", "sim"};
   static const std::vector<std::string> light{"gpiod", "sim"};
   static const std::vector<std::string> camera{"aravis", "sim"};
+  static const std::vector<std::string> filter_wheel{"serial", "sim"};
   if (role == "turntable") return turntable;
   if (role == "light") return light;
+  if (role == "filter_wheel") return filter_wheel;
   return camera;
 }
 
@@ -164,6 +166,7 @@ RigConfig RigConfig::parse(const ConfigTable& root, const fs::path& file) {
   rig.turntable = parse_device(devices, "turntable");
   rig.light = parse_device(devices, "light");
   rig.camera = parse_device(devices, "camera");
+  if (devices.has("filter_wheel")) rig.filter_wheel = parse_device(devices, "filter_wheel");
   devices.finish();
   rig.geometry = parse_geometry(root.table("geometry"));
   rig.plan = parse_plan(root.table("plan"));
@@ -177,7 +180,8 @@ RigConfig RigConfig::parse(const ConfigTable& root, const fs::path& file) {
 }
 
 bool RigConfig::all_simulated() const {
-  return turntable.kind == "sim" && light.kind == "sim" && camera.kind == "sim";
+  return turntable.kind == "sim" && light.kind == "sim" && camera.kind == "sim" &&
+         (!filter_wheel || filter_wheel->kind == "sim");
 }
 
 std::string RigConfig::describe() const {
@@ -187,6 +191,7 @@ std::string RigConfig::describe() const {
   s += fmt::format("  calibration folder  {}\n", calibration_dir.string());
   s += fmt::format("  turntable           {}\n  light               {}\n  camera              {}\n", turntable.kind,
                    light.kind, camera.kind);
+  if (filter_wheel) s += fmt::format("  filter wheel        {}\n", filter_wheel->kind);
   s += fmt::format("  sphere radius       {:.2f} mm\n", g.sphere_radius_m * 1e3);
   s += fmt::format("  arm                 radius {:.1f} mm, height {:.1f} mm, zero {:.2f} deg\n", g.arm_radius_m * 1e3,
                    g.arm_height_m * 1e3, g.arm_zero_deg);
@@ -207,7 +212,7 @@ Json RigConfig::to_json() const {
   const auto& t = tolerances;
   Json exposures_ms = Json::array();
   for (double e : p.exposures_s) exposures_ms.push_back(e * 1e3);
-  return Json{
+  Json j{
       {"name", name},
       {"file", file.string()},
       {"calibration", calibration_dir.string()},
@@ -249,6 +254,8 @@ Json RigConfig::to_json() const {
         {"saturated_frac", t.saturated_frac},
         {"calibration_max_age_days", t.calibration_max_age_days}}},
       {"simulated", all_simulated()}};
+  if (filter_wheel) j["devices"]["filter_wheel"] = {{"kind", filter_wheel->kind}};
+  return j;
 }
 
 }  // namespace paintlab

@@ -1,5 +1,7 @@
 #include "paintlab/devices/device_config.h"
 
+#include <fmt/format.h>
+
 #include "paintlab/core/error.h"
 
 namespace paintlab::dev {
@@ -39,6 +41,30 @@ SimLightConfig sim_light_config(const DeviceSection& section) {
   return c;
 }
 
+FilterWheelSetup filter_wheel_config(const DeviceSection& section) {
+  ConfigTable t = fresh(section);
+  FilterWheelSetup w;
+  w.kind = section.kind;
+  if (w.kind == "serial") {
+    w.serial = serial_filter_wheel_config(t);
+  } else {
+    w.sim_slots = static_cast<int>(t.integer("slots", 6, Bounds::closed(6, 12)));
+    if (w.sim_slots != 6 && w.sim_slots != 12) t.fail("slots", "must be 6 or 12 (the wheels' pcount)");
+    w.serial.settle_s = t.number("settle_ms", w.serial.settle_s * 1e3, Bounds::non_negative()) * 1e-3;
+  }
+  const int max_slot = w.kind == "sim" ? w.sim_slots : 12;
+  const char* keys[3] = {"slot_r", "slot_g", "slot_b"};
+  for (int c = 0; c < 3; ++c) {
+    w.channel_slot[c] = static_cast<int>(t.integer(keys[c], c + 1, Bounds::closed(1, max_slot)));
+    for (int k = 0; k < c; ++k)
+      if (w.channel_slot[k] == w.channel_slot[c])
+        t.fail(keys[c], fmt::format("slot {} is already {}'s: each colour needs its own filter", w.channel_slot[c], keys[k]));
+  }
+  t.accept("kind");
+  t.finish();
+  return w;
+}
+
 void validate_device_sections(const RigConfig& rig) {
   turntable_config(rig.turntable);
   if (rig.light.kind == "gpiod")
@@ -46,6 +72,7 @@ void validate_device_sections(const RigConfig& rig) {
   else
     sim_light_config(rig.light);
   camera_config(rig.camera, rig.geometry);
+  if (rig.filter_wheel) filter_wheel_config(*rig.filter_wheel);
 }
 
 }  // namespace paintlab::dev

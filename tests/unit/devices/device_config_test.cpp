@@ -131,5 +131,48 @@ TEST(PixelFormat, NamesAndDepths) {
   EXPECT_THROW(dev::pixel_format_from_string("YUV422"), DataError);
 }
 
+// [devices.filter_wheel]: a serial wheel with its port, a simulated one with its slot count,
+// and the slot of each colour filter; every mistake names its key.
+TEST(DeviceConfig, TheFilterWheelSectionGivesTheSlotOfEachColour) {
+  RigConfig serial = parse(test::kSimDevicesToml + R"([devices.filter_wheel]
+kind = "serial"
+port = "/dev/ttyUSB0"
+settle_ms = 250
+slot_r = 2
+slot_g = 4
+slot_b = 6
+)");
+  ASSERT_TRUE(serial.filter_wheel);
+  EXPECT_FALSE(serial.all_simulated());
+  EXPECT_NO_THROW(dev::validate_device_sections(serial));
+  const dev::FilterWheelSetup w = dev::filter_wheel_config(*serial.filter_wheel);
+  EXPECT_EQ(w.kind, "serial");
+  EXPECT_EQ(w.serial.port, "/dev/ttyUSB0");
+  EXPECT_DOUBLE_EQ(w.serial.settle_s, 0.25);
+  EXPECT_EQ(w.channel_slot, (std::array<int, 3>{2, 4, 6}));
+  EXPECT_THAT(serial.describe(), ::testing::HasSubstr("filter wheel        serial\n"));
+  EXPECT_EQ(serial.to_json()["devices"]["filter_wheel"]["kind"], "serial");
+
+  RigConfig sim = parse(test::kSimDevicesToml + "[devices.filter_wheel]\nkind = \"sim\"\nslots = 12\nslot_b = 12\n");
+  EXPECT_TRUE(sim.all_simulated());
+  const dev::FilterWheelSetup s = dev::filter_wheel_config(*sim.filter_wheel);
+  EXPECT_EQ(s.sim_slots, 12);
+  EXPECT_EQ(s.channel_slot, (std::array<int, 3>{1, 2, 12}));
+  EXPECT_FALSE(parse(test::kSimDevicesToml).filter_wheel);
+
+  const auto error_of = [](const std::string& section) {
+    return test::error_message<ConfigError>(
+        [&] { dev::validate_device_sections(parse(test::kSimDevicesToml + "[devices.filter_wheel]\n" + section)); });
+  };
+  EXPECT_THAT(error_of("kind = \"sim\"\nslot_g = 1\n"),
+              ::testing::AllOf(::testing::HasSubstr("devices.filter_wheel.slot_g"), ::testing::HasSubstr("already slot_r's")));
+  EXPECT_THAT(error_of("kind = \"sim\"\nslot_b = 7\n"), ::testing::HasSubstr("devices.filter_wheel.slot_b"));
+  EXPECT_THAT(error_of("kind = \"sim\"\nslots = 8\n"), ::testing::HasSubstr("6 or 12"));
+  EXPECT_THAT(error_of("kind = \"serial\"\n"), ::testing::HasSubstr("devices.filter_wheel.port"));
+  EXPECT_THAT(error_of("kind = \"serial\"\nport = \"/dev/ttyUSB0\"\nspeed = 1\n"),
+              ::testing::HasSubstr("devices.filter_wheel.speed"));
+  EXPECT_THROW(parse(test::kSimDevicesToml + "[devices.filter_wheel]\nkind = \"usb\"\n"), ConfigError);
+}
+
 }  // namespace
 }  // namespace paintlab

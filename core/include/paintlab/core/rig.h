@@ -17,7 +17,7 @@ namespace paintlab {
 // One device of the rig: its kind ("modbus-tcp", "modbus-rtu", "gpiod", "aravis", "sim")
 // and its table (devices.<role>) for the driver to read.
 struct DeviceSection {
-  std::string role;  // "turntable", "light", "camera"
+  std::string role;  // "turntable", "light", "camera", "filter_wheel"
   std::string kind;
   std::optional<ConfigTable> table;
 };
@@ -84,6 +84,7 @@ struct RigConfig {
   DeviceSection turntable;
   DeviceSection light;
   DeviceSection camera;
+  std::optional<DeviceSection> filter_wheel;  // [devices.filter_wheel]: a mono camera's colour filters
   RigGeometry geometry;
   MeasurementPlan plan;
   Tolerances tolerances;
@@ -92,7 +93,7 @@ struct RigConfig {
   // Loads and validates. Throws ConfigError (file, line, key) or IoError.
   static RigConfig load(const std::filesystem::path& path);
   static RigConfig parse(const ConfigTable& root, const std::filesystem::path& file);
-  // Whether every device is simulated.
+  // Whether every device (the filter wheel too, when there is one) is simulated.
   bool all_simulated() const;
   Json to_json() const;
   // What `paintlab rig validate` prints: "rig 'NAME' (FILE): valid", then one line each for
