@@ -31,6 +31,7 @@ if(GPIOD_VERSION VERSION_GREATER_EQUAL 2.0)
 endif()
 pkg_check_modules(ARAVIS REQUIRED IMPORTED_TARGET aravis-0.8)
 pkg_check_modules(LIBUSB REQUIRED IMPORTED_TARGET libusb-1.0)
+pkg_check_modules(LCMS2 REQUIRED IMPORTED_TARGET lcms2>=2.9)  # colour science: CIELAB, CIEDE2000, Bradford, CGATS
 if(PAINTLAB_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()

@@ -13,6 +13,8 @@ packages=(
   libopenexr-dev libimath-dev libhdf5-dev
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libexpected-dev
   libssl-dev
+  # colour science (LittleCMS 2) and the ColorChecker reference values (CGATS)
+  liblcms2-dev argyll-ref
   # tests and benchmarks
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   # fuzzing (scripts/fuzz.sh): clang with the libFuzzer and sanitizer runtimes
