@@ -153,6 +153,15 @@ SimConfig SimConfig::parse(const ConfigTable& sim, const RigGeometry& nominal) {
       if (std::abs(w[0] + w[1] + w[2] - 1.0) > 1e-6) t->fail("mono_weights", "the weights must sum to 1");
       cam.mono_weights = w;
     }
+    if (t->has("rgb_matrix")) {
+      auto m = t->numbers("rgb_matrix", 9, 9, Bounds::closed(-10.0, 10.0));
+      const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+                         m[2] * (m[3] * m[7] - m[4] * m[6]);
+      if (!(std::abs(det) > 1e-6))
+        t->fail("rgb_matrix", "the channel mix must be invertible (a camera that cannot tell colours apart)");
+      std::copy(m.begin(), m.end(), cam.rgb_matrix.begin());
+    }
+    if (t->has("rgb_gain")) cam.rgb_gain = t->triple("rgb_gain", Bounds{0.0, 10.0, true, false});
     // A mis-centred camera still has to see the sphere: checked by SimWorld (it needs the projection).
     t->finish();
   }
@@ -275,7 +284,9 @@ Json SimConfig::to_json() const {
         {"f_number", cam.f_number},
         {"psf_sigma_px", cam.psf_sigma_px},
         {"vignetting", cam.vignetting},
-        {"mono_weights", cam.mono_weights}}},
+        {"mono_weights", cam.mono_weights},
+        {"rgb_matrix", cam.rgb_matrix},
+        {"rgb_gain", cam.rgb_gain}}},
       {"sensor",
        {{"qe", s.qe},
         {"wavelength_nm", s.wavelength_nm},

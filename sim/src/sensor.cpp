@@ -85,6 +85,13 @@ double ResponseCurve::inverse(double y) const {
 
 Sensor::Sensor(const CameraModel& camera, const SensorParams& params, std::uint64_t seed)
     : p_(params), response_(params.response_poly), seed_(seed), width_(camera.width()), height_(camera.height()) {
+  const auto& m = camera.truth().rgb_matrix;
+  const auto& gain = camera.truth().rgb_gain;
+  for (std::size_t j = 0; j < 3; ++j)
+    for (std::size_t c = 0; c < 3; ++c) {
+      mix_[j * 3 + c] = gain[j] * m[j * 3 + c];
+      if (mix_[j * 3 + c] != (j == c ? 1.0 : 0.0)) mix_identity_ = false;
+    }
   double photon_j = kPlanck * kLightSpeed / (p_.wavelength_nm * 1e-9);
   double area = camera.truth().pixel_size_m * camera.truth().pixel_size_m;
   double base = p_.qe * area * camera.irradiance_per_radiance() / photon_j;
@@ -247,12 +254,39 @@ Image<std::uint16_t> Sensor::expose(const ImageF& radiance, const ExposureSettin
   k.inv = &reciprocals();
 
   const int channels = radiance.channels();
-  Image<std::uint16_t> out(width_, height_, channels);
+  if (s.cfa && s.mono_mix) throw DataError("sensor: an exposure has a colour-filter array or a mono filter mix, not both");
+  const bool one_of_three = s.cfa || s.mono_mix;
+  if (one_of_three && channels != 3)
+    throw DataError("sensor: a colour-filter array or a filter mix needs a 3-channel (scene RGB) radiance image");
+  if (s.cfa)
+    for (int c : *s.cfa)
+      if (c < 0 || c > 2) throw DataError("sensor: a colour-filter array entry must be 0 (R), 1 (G) or 2 (B)");
+  const int out_channels = one_of_three ? 1 : channels;
+  Image<std::uint16_t> out(width_, height_, out_channels);
   const std::uint64_t key = detail::hash_key(seed_, kStreamFrame, frame);
   const float* in = radiance.data();
   std::uint16_t* dst = out.data();
   const float* gmap = gain_map_.data();
   const double t = s.exposure_s;
+  // The radiance pixel p's camera channel j sees (the channel mix applied, never negative).
+  const std::array<double, 9>& mix = mix_;
+  const bool identity = mix_identity_;
+  const auto camera_channel = [in, &mix, identity](std::size_t p, int j) {
+    const float* L = in + p * 3;
+    if (identity) return std::max(static_cast<double>(L[j]), 0.0);
+    const double* r = mix.data() + 3 * j;
+    return std::max(r[0] * L[0] + r[1] * L[1] + r[2] * L[2], 0.0);
+  };
+  // The one-channel value a pixel records under a CFA or a filter mix.
+  std::array<double, 3> filter{};
+  if (s.mono_mix)
+    for (std::size_t c = 0; c < 3; ++c)
+      filter[c] = (*s.mono_mix)[c];
+  const auto sampled = [&](std::size_t p, int x, int y) {
+    if (s.cfa) return camera_channel(p, (*s.cfa)[static_cast<std::size_t>(2 * (y & 1) + (x & 1))]);
+    const float* L = in + p * 3;
+    return std::max(filter[0] * L[0] + filter[1] * L[1] + filter[2] * L[2], 0.0);
+  };
   detail::parallel_rows(height_, threads, [&](int y) {
     std::size_t p0 = static_cast<std::size_t>(y) * width_;
     if (channels == 1) {
@@ -263,12 +297,19 @@ Image<std::uint16_t> Sensor::expose(const ImageF& radiance, const ExposureSettin
       }
       return;
     }
+    if (one_of_three) {
+      for (int x = 0; x < width_; ++x) {
+        std::size_t p = p0 + x;
+        dst[p] = k(sampled(p, x, y) * (static_cast<double>(gmap[p]) * t) + k.dark_mu, detail::mix64(key + p));
+      }
+      return;
+    }
     for (int x = 0; x < width_; ++x) {
       std::size_t p = p0 + x;
       double g = static_cast<double>(gmap[p]) * t;
       for (int c = 0; c < channels; ++c) {
         std::size_t i = p * channels + c;
-        dst[i] = k(std::max(static_cast<double>(in[i]), 0.0) * g + k.dark_mu, detail::mix64(key + i));
+        dst[i] = k(camera_channel(p, c) * g + k.dark_mu, detail::mix64(key + i));
       }
     }
   });
@@ -276,9 +317,15 @@ Image<std::uint16_t> Sensor::expose(const ImageF& radiance, const ExposureSettin
   double hot_mu = p_.hot_pixel_dark_e_per_s * s.exposure_s;
   for (std::uint32_t p : hot_) {
     double g = static_cast<double>(gmap[p]) * t;
+    if (one_of_three) {
+      const int x = static_cast<int>(p % static_cast<std::uint32_t>(width_)), y = static_cast<int>(p / static_cast<std::uint32_t>(width_));
+      dst[p] = k(sampled(p, x, y) * g + hot_mu, detail::mix64(key + p));
+      continue;
+    }
     for (int c = 0; c < channels; ++c) {
       std::size_t i = static_cast<std::size_t>(p) * channels + c;
-      dst[i] = k(std::max(static_cast<double>(in[i]), 0.0) * g + hot_mu, detail::mix64(key + i));
+      const double L = channels == 1 ? std::max(static_cast<double>(in[i]), 0.0) : camera_channel(p, c);
+      dst[i] = k(L * g + hot_mu, detail::mix64(key + i));
     }
   }
   return out;

@@ -35,12 +35,19 @@ constexpr std::uint32_t kRegSensorWidth = 0x11c;
 constexpr std::uint32_t kRegPixelFormat = 0x128;
 constexpr std::uint32_t kRegBlackLevel = 0x8000;
 
-// The formats this fake serves: the monochrome ones its XML lists.
+// The formats this fake serves, those its XML lists: one value a pixel (Mono and the Bayer
+// mosaics), 8 bits in one byte, 12 and 16 bits in two (little-endian).
 std::optional<dev::PixelFormat> from_pfnc(std::uint32_t v) {
   const auto f = dev::pixel_format_from_pfnc(v);
-  if (f && dev::channels(*f) == 1 && dev::cfa_pattern(*f) == dev::CfaPattern::None) return f;
+  if (f && dev::channels(*f) == 1) return f;
   return std::nullopt;
 }
+
+constexpr dev::PixelFormat kServedFormats[] = {
+    dev::PixelFormat::Mono8,     dev::PixelFormat::Mono12,    dev::PixelFormat::Mono16,    dev::PixelFormat::BayerRG8,
+    dev::PixelFormat::BayerGR8,  dev::PixelFormat::BayerGB8,  dev::PixelFormat::BayerBG8,  dev::PixelFormat::BayerRG12,
+    dev::PixelFormat::BayerGR12, dev::PixelFormat::BayerGB12, dev::PixelFormat::BayerBG12, dev::PixelFormat::BayerRG16,
+    dev::PixelFormat::BayerGR16, dev::PixelFormat::BayerGB16, dev::PixelFormat::BayerBG16};
 
 // An integer register of the fake (big-endian, 4 bytes) as GenICam XML.
 std::string int_reg(const char* name, std::uint32_t address, const char* access) {
@@ -157,11 +164,9 @@ std::string GigeCamera::genicam_xml() {
   x += int_reg("BinningHorizontalReg", 0x108, "RW");
   x += integer("BinningVertical", "BinningVerticalReg", "    <Min>1</Min>\n    <Max>1</Max>\n");
   x += int_reg("BinningVerticalReg", 0x10c, "RW");
-  x += enumeration("PixelFormat",
-                   {{"Mono8", dev::pfnc_code(dev::PixelFormat::Mono8)},
-                    {"Mono12", dev::pfnc_code(dev::PixelFormat::Mono12)},
-                    {"Mono16", dev::pfnc_code(dev::PixelFormat::Mono16)}},
-                   "PixelFormatReg");
+  std::vector<std::pair<const char*, std::uint32_t>> formats;
+  for (dev::PixelFormat f : kServedFormats) formats.emplace_back(dev::to_string(f), dev::pfnc_code(f));
+  x += enumeration("PixelFormat", formats, "PixelFormatReg");
   x += int_reg("PixelFormatReg", kRegPixelFormat, "RW");
 
   x += "  <Category Name=\"AcquisitionControl\" NameSpace=\"Standard\">\n"
@@ -427,7 +432,7 @@ void GigeCamera::fill(void* vbuffer, std::uint32_t exposure_us, std::uint32_t ga
   std::size_t size = 0;
   auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
   std::size_t n = static_cast<std::size_t>(r.width) * r.height;
-  std::size_t bpp = r.format == dev::PixelFormat::Mono8 ? 1 : 2;
+  std::size_t bpp = dev::bit_depth(r.format) > 8 ? 2 : 1;
   if (!data || std::max(size, payload) < n * bpp) return;
   std::vector<std::uint16_t> px(n, 0);
   if (source) source(r, px.data());

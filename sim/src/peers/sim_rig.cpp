@@ -1,6 +1,7 @@
 #include "paintlab/sim/peers/sim_rig.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <mutex>
 
@@ -14,6 +15,7 @@ struct SimRig::Cache {
   bool valid = false;
   double angle_deg = 0.0;
   bool led_on = false;
+  bool rgb = false;  // rendered in scene RGB (for a colour-filter array) or mono
   const void* paint = nullptr;
   ImageF radiance;
 };
@@ -62,15 +64,34 @@ SimRig::~SimRig() {
 
 namespace {
 
+// A grey scene (one channel) as scene RGB.
+ImageF grey_to_rgb(const ImageF& grey) {
+  ImageF rgb(grey.width(), grey.height(), 3);
+  const float* in = grey.data();
+  float* out = rgb.data();
+  for (std::size_t i = 0; i < grey.size(); ++i) out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = in[i];
+  return rgb;
+}
+
 // One frame of `radiance` through the simulated sensor at the request's exposure, gain and
-// depth; the camera's BlackLevel moves the sensor's black level (in the output's units).
+// depth; the camera's BlackLevel moves the sensor's black level (in the output's units). A
+// Bayer format samples the scene's RGB through the colour-filter array (a grey scene given
+// as one channel is taken as equal RGB).
 void expose_frame(SimWorld& world, const ImageF& radiance, const FrameRequest& r, std::uint16_t* out) {
   ExposureSettings es;
   es.exposure_s = r.exposure_s;
   es.gain_db = r.gain_db;
   const int bits = dev::bit_depth(r.format);
   es.output_bits = bits;
-  const Image<std::uint16_t> raw = world.sensor().expose(radiance, es);
+  const dev::CfaPattern cfa = dev::cfa_pattern(r.format);
+  if (cfa != dev::CfaPattern::None) {
+    es.cfa = std::array<int, 4>{dev::cfa_colour(cfa, 0, 0), dev::cfa_colour(cfa, 1, 0), dev::cfa_colour(cfa, 0, 1),
+                                dev::cfa_colour(cfa, 1, 1)};
+  } else if (radiance.channels() == 3) {
+    es.mono_mix = world.config().camera.mono_weights;  // a monochrome sensor sees w . RGB
+  }
+  const Image<std::uint16_t> raw =
+      world.sensor().expose(cfa != dev::CfaPattern::None && radiance.channels() == 1 ? grey_to_rgb(radiance) : radiance, es);
   const auto& sp = world.config().sensor;
   const double offset = (r.black_level - sp.black_level_dn) * std::ldexp(1.0, bits - sp.adc_bits);
   const double max = std::ldexp(1.0, bits) - 1.0;
@@ -108,13 +129,18 @@ FrameSource SimRig::world_source() {
     const double angle = w->table_angle_deg();
     const bool led = w->led_on();
     const void* paint = w->paint().brdf.get();
+    const bool rgb = dev::cfa_pattern(r.format) != dev::CfaPattern::None;
     ImageF radiance;
     {
       std::lock_guard lock(cache->mutex);
-      if (!cache->valid || cache->angle_deg != angle || cache->led_on != led || cache->paint != paint) {
-        cache->radiance = w->render_at(angle, led);
+      if (!cache->valid || cache->angle_deg != angle || cache->led_on != led || cache->paint != paint ||
+          cache->rgb != rgb) {
+        RenderOptions ro;
+        ro.mono = !rgb;
+        cache->radiance = w->render_at(angle, led, ro);
         cache->angle_deg = angle;
         cache->led_on = led;
+        cache->rgb = rgb;
         cache->paint = paint;
         cache->valid = true;
       }

@@ -79,6 +79,8 @@ fx_px = 7800
 dist = [-0.1, 0.2, 0.001, -0.002, 0.01]
 roll_deg = 0.5
 mono_weights = [0.3, 0.6, 0.1]
+rgb_matrix = [0.8, 0.25, -0.05, 0.1, 0.85, 0.05, 0.02, 0.2, 0.78]
+rgb_gain = [0.55, 1.0, 0.7]
 [sim.sensor]
 adc_bits = 16
 black_level_dn = 100
@@ -99,6 +101,9 @@ sparkle_floor = 0.5
   EXPECT_DOUBLE_EQ(c.camera.fx_px, 7800.0);
   EXPECT_DOUBLE_EQ(c.camera.dist[4], 0.01);
   EXPECT_DOUBLE_EQ(c.camera.mono_weights[0], 0.3);
+  EXPECT_DOUBLE_EQ(c.camera.rgb_matrix[1], 0.25);
+  EXPECT_DOUBLE_EQ(c.camera.rgb_matrix[8], 0.78);
+  EXPECT_DOUBLE_EQ(c.camera.rgb_gain[0], 0.55);
   EXPECT_EQ(c.sensor.adc_bits, 16);
   EXPECT_DOUBLE_EQ(c.sensor.adc_max_dn(), 65535.0);
   EXPECT_DOUBLE_EQ(c.led.color[2], 0.8);
@@ -110,6 +115,7 @@ sparkle_floor = 0.5
   EXPECT_NEAR(c.sensor.gain0_dn_per_e() * c.sensor.full_well_e, 65535.0 - 100.0, 1e-6);
   Json j = c.to_json();
   EXPECT_EQ(j["sensor"]["adc_bits"], 16);
+  EXPECT_EQ(j["camera"]["rgb_gain"][2], 0.7);
 }
 
 TEST(SimConfig, ErrorsNameFileLineAndKey) {
@@ -126,6 +132,10 @@ TEST(SimConfig, ErrorsNameFileLineAndKey) {
               HasSubstr("rig.toml:18: key 'sim.sensor.response': the coefficients must sum to 1"));
   EXPECT_THAT(error_of("[sim.sensor]\nresponse = [2.5, -1.5]\n"), HasSubstr("must increase on [0, 1]"));
   EXPECT_THAT(error_of("[sim.camera]\nmono_weights = [0.5, 0.5, 0.5]\n"), HasSubstr("must sum to 1"));
+  EXPECT_THAT(error_of("[sim.camera]\nrgb_matrix = [1, 1, 0, 1, 1, 0, 0, 0, 1]\n"),
+              HasSubstr("rig.toml:18: key 'sim.camera.rgb_matrix': the channel mix must be invertible"));
+  EXPECT_THAT(error_of("[sim.camera]\nrgb_matrix = [1, 0, 0]\n"), HasSubstr("key 'sim.camera.rgb_matrix': expected 9 values"));
+  EXPECT_THAT(error_of("[sim.camera]\nrgb_gain = [1, 0, 1]\n"), HasSubstr("key 'sim.camera.rgb_gain': element 1 must be in (0, 10] (got 0)"));
   EXPECT_THAT(error_of("[sim.led]\narm_radius_m = 0.03\n"),
               HasSubstr("rig.toml:18: key 'sim.led.arm_radius_m': the LED arm must pass outside the sphere"));
   EXPECT_THAT(error_of("[sim.scene]\ntable_depth_m = 0.02\n"),

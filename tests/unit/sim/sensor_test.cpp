@@ -201,3 +201,102 @@ TEST(Sensor, DeterministicWithASeed) {
   ImageF wrong(10, 10, 1);
   EXPECT_THROW(a.expose(wrong, e), DataError);
 }
+
+// ---- colour: the camera's channel mix, colour-filter arrays, a mono sensor behind a filter ----
+
+namespace {
+
+// A scene of one colour in linear sRGB, 3 channels.
+ImageF uniform_colour(const sim::CameraModel& cam, double r, double g, double b) {
+  ImageF img(cam.width(), cam.height(), 3);
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) {
+      img.at(x, y, 0) = static_cast<float>(r);
+      img.at(x, y, 1) = static_cast<float>(g);
+      img.at(x, y, 2) = static_cast<float>(b);
+    }
+  return img;
+}
+
+// Mean raw value over the pixels whose (x & 1, y & 1) is (sx, sy), and the sensor's expectation there.
+std::pair<double, double> site_means(const sim::Sensor& s, const Image<std::uint16_t>& img, int sx, int sy, double L,
+                                     double t) {
+  double got = 0, want = 0;
+  int n = 0;
+  for (int y = sy; y < img.height(); y += 2)
+    for (int x = sx; x < img.width(); x += 2) {
+      got += img.at(x, y);
+      want += s.expected_raw(L, x, y, t, 0.0);
+      ++n;
+    }
+  return {got / n, want / n};
+}
+
+}  // namespace
+
+TEST(SensorColour, ABayerFrameOfAGreySceneWithoutAMixIsTheMonoFrameBitForBit) {
+  Rig rig(sim::SensorParams{});  // PRNU and hot pixels on
+  sim::Sensor s(rig.cam, rig.params, 5);
+  sim::ExposureSettings e = exposure(2e-3, 0.0, 3);
+  const auto mono = s.expose(sim::uniform_field(rig.cam, 3.0, 1), e);
+  e.cfa = std::array<int, 4>{0, 1, 1, 2};
+  const auto bayer = s.expose(sim::uniform_field(rig.cam, 3.0, 3), e);
+  EXPECT_EQ(bayer.channels(), 1);
+  EXPECT_EQ(bayer.values(), mono.values());
+}
+
+TEST(SensorColour, EachSiteRecordsItsCameraChannelThroughTheMixAndGains) {
+  sim::CameraTruth truth = sim::test::small_config(12.0, 96, 64).camera;
+  truth.rgb_matrix = {0.8, 0.25, -0.05, 0.1, 0.85, 0.05, 0.02, 0.2, 0.78};
+  truth.rgb_gain = {0.55, 1.0, 0.7};
+  const sim::CameraModel cam(truth);
+  sim::Sensor s(cam, quiet_params(), 9);
+  const Eigen::Vector3d scene(2.0, 1.0, 0.5);  // an orange in linear sRGB
+  Eigen::Matrix3d mix;
+  mix << 0.8, 0.25, -0.05, 0.1, 0.85, 0.05, 0.02, 0.2, 0.78;
+  const Eigen::Vector3d camera_rgb = Eigen::Vector3d(0.55, 1.0, 0.7).asDiagonal() * mix * scene;
+  const double t = 4000.0 / s.electrons_per_s_per_radiance(48, 32) / camera_rgb.maxCoeff();
+  sim::ExposureSettings e = exposure(t, 0.0, 1);
+  e.cfa = std::array<int, 4>{1, 0, 2, 1};  // GenICam BayerGR: G R / B G
+  const auto bayer = s.expose(uniform_colour(cam, scene.x(), scene.y(), scene.z()), e);
+  const int site_colour[2][2] = {{1, 0}, {2, 1}};  // [y & 1][x & 1]
+  for (int sy = 0; sy < 2; ++sy)
+    for (int sx = 0; sx < 2; ++sx) {
+      const auto [got, want] = site_means(s, bayer, sx, sy, camera_rgb[site_colour[sy][sx]], t);
+      EXPECT_THAT(got, test::NearRel(want, 0.005)) << "site " << sx << "," << sy;
+    }
+  // Three channels out without a CFA: the same camera RGB per channel.
+  e.cfa.reset();
+  const auto rgb = s.expose(uniform_colour(cam, scene.x(), scene.y(), scene.z()), e);
+  ASSERT_EQ(rgb.channels(), 3);
+  for (int c = 0; c < 3; ++c) {
+    double sum = 0;
+    for (int y = 0; y < rgb.height(); ++y)
+      for (int x = 0; x < rgb.width(); ++x) sum += rgb.at(x, y, c);
+    EXPECT_THAT(sum / (rgb.width() * rgb.height()),
+                test::NearRel(site_means(s, bayer, 0, 0, camera_rgb[c], t).second, 0.005))
+        << "channel " << c;
+  }
+  // A mono sensor behind a filter: w . scene.
+  e.mono_mix = std::array<double, 3>{0.05, 0.6, 0.02};
+  const auto filtered = s.expose(uniform_colour(cam, scene.x(), scene.y(), scene.z()), e);
+  ASSERT_EQ(filtered.channels(), 1);
+  const auto [got, want] = site_means(s, filtered, 1, 1, 0.05 * 2.0 + 0.6 * 1.0 + 0.02 * 0.5, t);
+  EXPECT_THAT(got, test::NearRel(want, 0.005));
+}
+
+TEST(SensorColour, ImpossibleColourExposuresAreRefused) {
+  Rig rig(quiet_params());
+  sim::Sensor s(rig.cam, rig.params, 1);
+  sim::ExposureSettings e = exposure(1e-3);
+  e.cfa = std::array<int, 4>{0, 1, 1, 2};
+  EXPECT_THAT(test::error_message<DataError>([&] { s.expose(sim::uniform_field(rig.cam, 1.0, 1), e); }),
+              ::testing::HasSubstr("needs a 3-channel (scene RGB) radiance image"));
+  e.cfa = std::array<int, 4>{0, 1, 3, 2};
+  EXPECT_THAT(test::error_message<DataError>([&] { s.expose(sim::uniform_field(rig.cam, 1.0, 3), e); }),
+              ::testing::HasSubstr("must be 0 (R), 1 (G) or 2 (B)"));
+  e.cfa = std::array<int, 4>{0, 1, 1, 2};
+  e.mono_mix = std::array<double, 3>{1, 0, 0};
+  EXPECT_THAT(test::error_message<DataError>([&] { s.expose(sim::uniform_field(rig.cam, 1.0, 3), e); }),
+              ::testing::HasSubstr("not both"));
+}

@@ -40,6 +40,12 @@ struct CameraTruth {
   std::array<double, 2> vignetting{};
   // Monochrome camera: mono = w . RGB (a camera spectral mix; sums to 1 so grey stays grey).
   std::array<double, 3> mono_weights{0.2126, 0.7152, 0.0722};
+  // A colour camera's channels (CFA or three-channel frames): camera RGB = diag(rgb_gain) *
+  // rgb_matrix * scene linear sRGB, rgb_matrix row-major (row j: what camera channel j sees of
+  // the scene's R, G, B). A real sensor's dyes are not the sRGB primaries: the colour
+  // calibration has to find the inverse. Identity and unit gains: camera RGB = scene sRGB.
+  std::array<double, 9> rgb_matrix{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  std::array<double, 3> rgb_gain{1.0, 1.0, 1.0};
 
   // cam_from_rig built from position, look-at point and roll (the rig's z is "up").
   Rigid3 cam_from_rig() const;
@@ -74,7 +80,7 @@ struct LedTruth {
   double arm_height_m = 0.0;
   double zero_deg = 0.0;              // LED azimuth at table angle 0
   double intensity_w_sr = 0.1;        // radiant intensity on the LED axis (W/sr, camera RGB units)
-  std::array<double, 3> color{1.0, 1.0, 1.0};  // relative RGB of the LED
+  std::array<double, 3> color{1.0, 1.0, 1.0};  // the LED's white in scene linear sRGB ((1,1,1) = D65)
   double profile_exponent = 1.0;      // I(theta) = I0 cos^n(theta) off the LED axis (1: Lambertian)
   Vec3 aim_rig_m = Vec3::Zero();      // the LED axis points at this rig point
 };

@@ -11,6 +11,7 @@
 //   output          v * 2^(output_bits - adc_bits)   (MSB aligned, as Mono16 from a 12-bit ADC)
 // Noise is a pure function of (seed, frame index, pixel): deterministic with a seed. One
 // radiance image serves a whole exposure bracket.
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <optional>
@@ -47,6 +48,14 @@ struct ExposureSettings {
   int output_bits = 0;
   // Which noise realisation; unset = the sensor's own frame counter (then incremented).
   std::optional<std::uint64_t> frame_index;
+  // A colour-filter array: the camera channel (0 R, 1 G, 2 B) each pixel of the top-left 2x2
+  // block records, row by row (GenICam's BayerRG is {0, 1, 1, 2}). Needs a 3-channel scene;
+  // gives one channel, each pixel its own camera channel. Unset: as many channels out as in.
+  std::optional<std::array<int, 4>> cfa{};
+  // A monochrome sensor behind a colour filter: every pixel records w . scene RGB (w: the
+  // sensor's spectral mix times the filter's transmission per channel). Needs a 3-channel
+  // scene; gives one channel. Exclusive with cfa.
+  std::optional<std::array<double, 3>> mono_mix{};
 };
 
 class Sensor {
@@ -73,7 +82,9 @@ class Sensor {
   // The noise-free raw value (ADC DN) for radiance L: raw_from_electrons(mean_electrons()).
   double expected_raw(double radiance, int x, int y, double exposure_s, double gain_db) const;
 
-  // Exposes a radiance image (1 or 3 channels, the sensor's size). Channels get
+  // Exposes a radiance image (1 or 3 channels, the sensor's size). A 3-channel image is scene
+  // linear sRGB: the camera's channel mix (CameraTruth::rgb_matrix, rgb_gain) turns it into
+  // camera RGB first, then settings.cfa or mono_mix may sample it to one channel. Channels get
   // independent noise. threads: 0 = all cores. Thread-safe.
   Image<std::uint16_t> expose(const ImageF& radiance, const ExposureSettings& settings, int threads = 0);
   // Frames exposed so far (the next default frame index).
@@ -85,6 +96,8 @@ class Sensor {
   std::uint64_t seed_;
   int width_, height_;
   std::vector<float> gain_map_;     // electrons per second per radiance, per pixel
+  std::array<double, 9> mix_{};     // scene sRGB -> camera RGB (diag(gain) * matrix), row-major
+  bool mix_identity_ = true;
   std::vector<std::uint32_t> hot_;  // hot pixel indices
   std::atomic<std::uint64_t> frames_{0};
 };
