@@ -20,7 +20,7 @@ target_include_directories(paintlab_tl_expected INTERFACE ${TL_EXPECTED_INCLUDE_
 find_package(OpenSSL REQUIRED)  # SHA-256 of data files
 find_package(OpenEXR 3 REQUIRED)
 find_package(Imath REQUIRED)
-find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d features2d photo)
+find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d features2d photo mcc)
 find_package(TBB REQUIRED)
 find_package(Ceres 2 REQUIRED)
 find_package(HDF5 REQUIRED COMPONENTS C)

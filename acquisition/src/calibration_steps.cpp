@@ -1,6 +1,9 @@
 #include "paintlab/acquisition/calibration_steps.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
 
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/calibration/record.h"
@@ -60,6 +63,48 @@ calib::IntrinsicsResult intrinsics_step(const StepImages& in, const calib::Board
   calib::IntrinsicsResult r = calib::calibrate_intrinsics(images, board, options);
   r.provenance = calib::Provenance::make("intrinsics", read, in.devices);
   return r;
+}
+
+calib::ColourCalibration colour_step(const StepImages& in, const calib::ChartReference& reference,
+                                     const calib::ColourFitOptions& options) {
+  if (in.files.empty())
+    throw UsageError("calibrate colour: give --images (linear RGB EXR images of the chart, e.g. from `paintlab hdr merge`)");
+  std::vector<calib::PatchMeasurement> sum;
+  for (const auto& path : in.files) {
+    const ExrImage exr = read_exr(path);
+    ImageF rgb(exr.width, exr.height, 3);
+    const char* names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; ++c) {
+      const ImageF* plane = exr.find(names[c]);
+      if (!plane)
+        throw DataError(fmt::format("{}: no channel {}: the colour chart needs a linear RGB image (channels R, G, B)",
+                                    path.string(), names[c]));
+      for (int y = 0; y < exr.height; ++y)
+        for (int x = 0; x < exr.width; ++x) rgb.at(x, y, c) = plane->at(x, y);
+    }
+    const calib::ChartDetection found = calib::find_colour_chart(rgb, reference);
+    spdlog::info("{}: chart found, patches {:.0f} px apart", path.filename().string(), found.pitch_px);
+    if (sum.empty()) {
+      sum = found.patches;
+      continue;
+    }
+    for (std::size_t i = 0; i < sum.size(); ++i) {
+      sum[i].rgb += found.patches[i].rgb;
+      sum[i].stderr_rgb += found.patches[i].stderr_rgb;
+      sum[i].pixels += found.patches[i].pixels;
+      sum[i].clipped = sum[i].clipped || found.patches[i].clipped;
+    }
+  }
+  const double n = static_cast<double>(in.files.size());
+  for (calib::PatchMeasurement& p : sum) {
+    p.rgb /= n;
+    p.stderr_rgb /= n * std::sqrt(n);
+  }
+  calib::ColourCalibration cal = calib::fit_colour(reference, sum, options);
+  std::vector<std::filesystem::path> read = in.files;
+  read.emplace_back(reference.source);
+  cal.provenance = calib::Provenance::make("colour", read, in.devices);
+  return cal;
 }
 
 calib::SphereFit sphere_step(const StepImages& in, const calib::RigCalibration& cal, const RigConfig& rig,

@@ -11,6 +11,7 @@
 //   paintlab calibrate light  --rig R (--images FILES... | --capture) [--angles -150:150:10]
 //   paintlab calibrate scale  --rig R (--images FILES... | --capture) --albedo A [--angles -40,0,40]
 //   paintlab calibrate all    --rig R (--images DIR | --capture) [--albedo A] [--fix-k3 | --free-k3]
+//   paintlab calibrate colour --images CHART.exr (--rig R | --out colour.json) [--model M] [--reference F]
 // With --capture the frames are kept in calib/captures/<step>/; on a simulated rig the
 // simulator puts the lens cap, the boards, the references and the diffuser in place, on a
 // real rig the technician does when asked.
@@ -27,6 +28,7 @@
 #include "calibrate_support.h"
 #include "cli.h"
 #include "paintlab/acquisition/calibration_steps.h"
+#include "paintlab/calibration/colour.h"
 #include "paintlab/calibration/procedure.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/rig_calibration.h"
@@ -290,6 +292,26 @@ void run_step_command(const std::string& step, const StepCommon& a, const std::f
   run(c);
 }
 
+// `calibrate colour`: the colour matrix from images of a ColorChecker (calibration/colour.h).
+struct ColourArgs {
+  std::vector<std::string> images;
+  std::string rig, out, reference = calib::kColorCheckerReference, model = "matrix";
+};
+
+int run_colour(const ColourArgs& a) {
+  if (a.rig.empty() == a.out.empty()) throw UsageError("calibrate colour: give --rig R (writes its calibration folder's colour.json) or --out FILE");
+  const calib::ColourFitOptions o{.model = calib::colour_model_from_string(a.model, "--model")};
+  const acq::StepImages in{.files = expand_input_files(a.images, "--images", {".exr"})};
+  OutputSpec out(a.out.empty() ? "--rig" : "--out", a.out.empty() ? load_rig(a.rig).calibration_dir / calib::kColourFile : fs::path(a.out));
+  out.create_parents = true;
+  fit::OutputGuard().inputs("--images", in.files).input("--reference", a.reference).output(out).check();
+  const calib::ColourCalibration cal = acq::colour_step(in, calib::ChartReference::load(a.reference), o);
+  if (out.path.has_parent_path()) fs::create_directories(out.path.parent_path());
+  cal.save(out.path);
+  say(cal.describe() + "\n  wrote " + out.path.string());
+  return kExitOk;
+}
+
 // `calibrate all`: images from DIR/<step> or captured; the intrinsics' k3 choice.
 struct AllArgs : StepCommon {
   std::string images_dir;
@@ -371,6 +393,13 @@ void register_calibrate_commands(CLI::App& app) {
     if (std::string(step) == "scale")
       cmd->add_option("--albedo", g->albedo, "the reference sphere's certified albedo (simulated rigs: 0.99)");
   }
+
+  auto [colour, k] = add_command<ColourArgs>(group, "colour", "The colour matrix from a ColorChecker 24 (writes colour.json)", run_colour);
+  colour->add_option("--images", k->images, "linear RGB EXR images of the chart (hdr merge of a colour stack)")->required();
+  colour->add_option("--rig", k->rig, "rig.toml: writes its calibration folder's colour.json");
+  colour->add_option("--out", k->out, "output file (instead of --rig)");
+  colour->add_option("--reference", k->reference, "the chart's CGATS reference (LAB_L.. or XYZ_X..)")->capture_default_str();
+  colour->add_option("--model", k->model, "matrix, root-polynomial-2 or root-polynomial-3")->capture_default_str();
 
   auto [all, a] = add_command<AllArgs>(
       group, "all", "Every calibration step in order (writes the whole calibration folder)",

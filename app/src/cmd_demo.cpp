@@ -50,25 +50,6 @@ struct DemoArgs {
   int max_iterations = 100;  // of the fit's final solve (paintlab fit --max-iterations)
 };
 
-// The paint the demo measures: a file, or the built-in silver metallic.
-struct DemoPaint {
-  brdf::PaintSpec spec;
-  std::string toml_text;
-};
-
-DemoPaint demo_paint(const std::string& file) {
-  DemoPaint p;
-  if (file.empty()) {
-    p.toml_text = sim::builtin_paint_toml();
-    p.spec = sim::builtin_paint();
-  } else {
-    p.spec = brdf::load_paint_file(file);
-    p.toml_text = read_file(file);
-  }
-  if (p.spec.merl()) throw UsageError("demo --paint: a MERL table cannot be simulated; give an analytic paint");
-  return p;
-}
-
 // Runs `paintlab ARGS...` as a child (output goes to the terminal), returns its exit code
 // and adds its wall time to `seconds`.
 int run_step(const std::vector<std::string>& args, double& seconds) {
@@ -163,7 +144,7 @@ int run_demo(const DemoArgs& a) {
     out.create_parents = true;
     fit::OutputGuard().input("--paint", a.paint).output(out).check();
   }
-  const DemoPaint paint = demo_paint(a.paint);
+  const sim::SimulatedPaint paint = sim::simulated_paint(a.paint, "demo --paint");
   const std::string name = paint.spec.name;
   if (fs::exists(dir) && !fs::is_directory(dir)) throw UsageError(fmt::format("demo --out {}: not a folder", dir.string()));
   if (fs::exists(dir) && !fs::is_empty(dir) && !fs::exists(dir / kMarker))

@@ -23,6 +23,8 @@
 #include "paintlab/core/process.h"
 #include "paintlab/core/progress.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/sim/builtin.h"
+#include "paintlab/brdf/paint.h"
 #include "rig_devices.h"
 
 namespace fs = std::filesystem;
@@ -93,7 +95,7 @@ int run_measure(const MeasureArgs& a) {
       if (sim_paint_json.is_null())
         throw DataError(a.resume + "/session.json: this simulated session does not record its sim paint");
     } else {
-      sim_paint_json = load_sim_paint_json(a.sim_paint);
+      sim_paint_json = brdf::to_json(sim::simulated_paint(a.sim_paint, "--sim-paint").spec);
     }
     apply_sim_paint(devices, sim_paint_json, session ? session->dir() : fs::path(a.out));
   } else if (!a.sim_paint.empty()) {

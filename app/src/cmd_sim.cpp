@@ -8,6 +8,7 @@
 #include "rig_devices.h"
 #include "cli.h"
 #include "paintlab/fitting/output_guard.h"
+#include "paintlab/calibration/colour.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/image_io.h"
 #include "paintlab/core/rig.h"
@@ -73,6 +74,8 @@ int run_render(const RenderArgs& a) {
     world.set_paint(sim::load_sim_paint(a.paint));
     q.paint_name = std::filesystem::path(a.paint).stem().string();
   }
+  if (q.kind == sim::SceneKind::ColourChart)  // the ColorChecker's reference colours in linear sRGB
+    q.chart.patch_rgb = calib::ChartReference::load(calib::kColorCheckerReference).srgb_reflectances();
   const sim::SceneRender scene = sim::render_scene(world, q);
   const ImageF& radiance = scene.radiance;
   const std::string& what = scene.description;
@@ -106,10 +109,10 @@ void register_sim_commands(CLI::App& app) {
   render->add_option("--exposure", args->exposure_ms, "exposure time, ms (PNG output; sets the target lighting)");
   render->add_option("--gain-db", args->gain_db, "camera gain, dB (PNG output)");
   render->add_option("--out", args->out, "output file: .exr (radiance) or .png (raw)")->required();
-  render->add_option("--scene", args->scene, "sphere, white (reference sphere), chessboard, charuco, flat, dark")
-      ->check(CLI::IsMember({"sphere", "white", "chessboard", "charuco", "flat", "dark"}));
+  render->add_option("--scene", args->scene, "sphere, white (reference sphere), chessboard, charuco, colour-chart, flat, dark")
+      ->check(CLI::IsMember({"sphere", "white", "chessboard", "charuco", "colour-chart", "flat", "dark"}));
   render->add_option("--albedo", args->albedo, "albedo of the white reference sphere")->check(CLI::Range(0.0, 1.0));
-  render->add_option("--view", args->view, "which generated chessboard or ChArUco pose (0, 1, ...)")->check(CLI::Range(0, 99));
+  render->add_option("--view", args->view, "which generated board or chart pose (0, 1, ...)")->check(CLI::Range(0, 99));
   render->add_option("--frame", args->frame, "noise realisation (frame index) of the PNG");
   render->add_option("--threads", args->threads, "threads, 0 = all cores");
   render->add_flag("--rgb", args->rgb, "colour output (default: the monochrome camera's mix)");

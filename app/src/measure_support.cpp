@@ -13,13 +13,6 @@ namespace fs = std::filesystem;
 
 namespace paintlab::app {
 
-Json load_sim_paint_json(const std::string& paint_file) {
-  brdf::PaintSpec spec =
-      paint_file.empty() ? sim::builtin_paint() : brdf::load_paint_file(paint_file);
-  if (spec.merl()) throw UsageError("--sim-paint: a MERL table cannot be simulated with sparkle; use an analytic paint");
-  return brdf::to_json(spec);
-}
-
 void apply_sim_paint(RigDevices& devices, const Json& paint_json, const fs::path& where) {
   brdf::PaintSpec spec = brdf::paint_from_json(paint_json, (where / "session.json").string() + ": options.sim_paint");
   devices.sim->world().set_paint(sim::sim_paint(spec));

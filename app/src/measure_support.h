@@ -11,9 +11,7 @@
 
 namespace paintlab::app {
 
-// The paint of a simulated sphere as JSON (brdf::to_json): from a paint file, or the
-// built-in silver metallic when `paint_file` is empty.
-Json load_sim_paint_json(const std::string& paint_file);
+// Puts the session's simulated paint (brdf::to_json, session.json's options.sim_paint) on the sphere.
 void apply_sim_paint(RigDevices& devices, const Json& paint_json, const std::filesystem::path& where);
 
 }  // namespace paintlab::app

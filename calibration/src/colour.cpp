@@ -63,6 +63,15 @@ std::vector<colour::Lab> ChartReference::lab_d65() const {
   return out;
 }
 
+std::vector<std::array<double, 3>> ChartReference::srgb_reflectances() const {
+  std::vector<std::array<double, 3>> out;
+  for (const colour::Xyz& x : xyz_d65()) {
+    const colour::Rgb s = colour::xyz_to_srgb(x);
+    out.push_back({s.x(), s.y(), s.z()});
+  }
+  return out;
+}
+
 int ChartReference::index_of(const std::string& patch) const {
   const auto it = std::find(patches.begin(), patches.end(), patch);
   return it == patches.end() ? -1 : static_cast<int>(it - patches.begin());

@@ -6,7 +6,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "paintlab/core/atomic_file.h"
 #include "paintlab/core/config.h"
+#include "paintlab/core/error.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/sim/config.h"
 
@@ -22,6 +24,14 @@ const char* builtin_paint_toml() { return embedded::paint_silver_metallic_toml()
 
 brdf::PaintSpec builtin_paint() {
   return brdf::parse_paint(ConfigTable::parse_string(builtin_paint_toml(), "silver-metallic.toml"));
+}
+
+SimulatedPaint simulated_paint(const std::string& file, const std::string& option) {
+  SimulatedPaint p;
+  p.spec = file.empty() ? builtin_paint() : brdf::load_paint_file(file);
+  p.toml_text = file.empty() ? builtin_paint_toml() : read_file(file);
+  if (p.spec.merl()) throw UsageError(option + ": a MERL table cannot be simulated; give an analytic paint");
+  return p;
 }
 
 namespace {

@@ -14,13 +14,14 @@ namespace paintlab::sim {
 
 namespace {
 
-constexpr EnumNames<SceneKind, 6> kSceneNames{{
+constexpr EnumNames<SceneKind, 7> kSceneNames{{
     {SceneKind::Sphere, "sphere"},
     {SceneKind::White, "white"},
     {SceneKind::Chessboard, "chessboard"},
     {SceneKind::Charuco, "charuco"},
     {SceneKind::Flat, "flat"},
     {SceneKind::Dark, "dark"},
+    {SceneKind::ColourChart, "colour-chart"},
 }};
 
 // A board at view q.view (pose v of q.views, or of v + 1, with the world's seed), lit so that its white
@@ -101,6 +102,30 @@ SceneRender render_scene(SimWorld& world, const SceneRequest& q) {
       out.radiance = dark_field(world.camera(), q.channels);
       out.description = "dark frame";
       break;
+    case SceneKind::ColourChart: {
+      // Lit by the LED's white so that the brightest patch channel reaches half the full well.
+      const ColourChart& chart = q.chart;
+      chart.check();
+      const auto poses =
+          colour_chart_poses(world.camera(), chart, q.views > 0 ? q.views : q.view + 1, world.config().seed);
+      PlaneLighting light;
+      light.irradiance_w_m2 = world.irradiance_for_fill(0.5, q.exposure_s, chart.max_albedo());
+      light.colour = world.config().led.color;
+      ImageF rgb = render_colour_chart(world.camera(), chart, poses.at(static_cast<std::size_t>(q.view)), light, 16,
+                                       q.threads);
+      if (q.channels == 1) {  // a monochrome camera: w . RGB
+        const auto& w = world.config().camera.mono_weights;
+        ImageF mono(rgb.width(), rgb.height(), 1);
+        for (int y = 0; y < rgb.height(); ++y)
+          for (int x = 0; x < rgb.width(); ++x)
+            mono.at(x, y) = static_cast<float>(w[0] * rgb.at(x, y, 0) + w[1] * rgb.at(x, y, 1) + w[2] * rgb.at(x, y, 2));
+        rgb = std::move(mono);
+      }
+      out.radiance = std::move(rgb);
+      out.description = fmt::format("{}x{} colour chart of {:g} mm patches, view {}", chart.cols, chart.rows,
+                                    chart.patch_m * 1e3, q.view);
+      break;
+    }
   }
   return out;
 }

@@ -59,7 +59,10 @@ inline bool board_point(const Mat3& hinv, const Vec2& xn, Vec2* out) {
 
 namespace {
 
-// Renders a printed plane: albedo(p) (< 0 outside the print) and region(p), an id that is
+Eigen::Array3d as_rgb(double grey) { return Eigen::Array3d::Constant(grey); }
+Eigen::Array3d as_rgb(const std::array<double, 3>& rgb) { return {rgb[0], rgb[1], rgb[2]}; }
+
+// Renders a printed plane: albedo(p) (grey or RGB; -1 outside the print) and region(p), an id that is
 // constant over convex patches of constant albedo, so pixels whose four corners share an
 // id are uniform and only the others are supersampled.
 template <class Albedo, class Region>
@@ -77,14 +80,16 @@ ImageF render_planar(const CameraModel& camera, const Rigid3& cam_from_board, co
   // The print faces the camera when the board's +z points away from it.
   bool print_faces_camera = R.col(2).dot(cam_from_board.translation) > 0;
   const double scale = lighting.irradiance_w_m2 / kPi;
-  auto radiance = [&](bool front, const Vec2& p) {
-    if (!front) return lighting.background_radiance;
-    double a = albedo(p);
-    return a < 0 ? lighting.background_radiance : a * scale;
+  const Eigen::Array3d tint(lighting.colour[0], lighting.colour[1], lighting.colour[2]);
+  const Eigen::Array3d background = Eigen::Array3d::Constant(lighting.background_radiance);
+  auto radiance = [&](bool front, const Vec2& p) -> Eigen::Array3d {
+    if (!front) return background;
+    const Eigen::Array3d a = as_rgb(albedo(p));
+    return a[0] <= -1.0 ? background : Eigen::Array3d(a * scale * tint);
   };
   auto region_of = [&](bool front, const Vec2& p) -> std::int64_t {
     if (!front) return -1;
-    if (albedo(p) < 0) return -2;
+    if (as_rgb(albedo(p))[0] <= -1.0) return -2;
     return region(p);
   };
 
@@ -101,12 +106,12 @@ ImageF render_planar(const CameraModel& camera, const Rigid3& cam_from_board, co
         bool front = print_faces_camera && board_point(hinv, xn, &p);
         ids[k] = region_of(front, p);
       }
-      double v;
+      Eigen::Array3d v;
       if (ids[0] == ids[1] && ids[0] == ids[2] && ids[0] == ids[3]) {
         bool front = print_faces_camera && board_point(hinv, camera.grid_point(x, y, 0.5, 0.5), &p);
         v = radiance(front, p);
       } else {
-        double sum = 0;
+        Eigen::Array3d sum = Eigen::Array3d::Zero();
         for (int b = 0; b < samples; ++b)
           for (int a = 0; a < samples; ++a) {
             bool front = print_faces_camera &&
@@ -116,7 +121,7 @@ ImageF render_planar(const CameraModel& camera, const Rigid3& cam_from_board, co
         v = sum / (samples * samples);
       }
       float* px = &out.at(x, y, 0);
-      for (int c = 0; c < channels; ++c) px[c] = static_cast<float>(v);
+      for (int c = 0; c < channels; ++c) px[c] = static_cast<float>(v[c]);
     }
   });
   camera.blur(out, threads);
@@ -124,6 +129,62 @@ ImageF render_planar(const CameraModel& camera, const Rigid3& cam_from_board, co
 }
 
 }  // namespace
+
+Vec2 ColourChart::outline_lo() const { return Vec2::Constant(-border_m); }
+
+Vec2 ColourChart::outline_hi() const {
+  return {cols * patch_m + (cols - 1) * gap_m + border_m, rows * patch_m + (rows - 1) * gap_m + border_m};
+}
+
+Vec2 ColourChart::patch_centre(int k) const {
+  const double pitch = patch_m + gap_m;
+  return {(k % cols) * pitch + 0.5 * patch_m, (k / cols) * pitch + 0.5 * patch_m};
+}
+
+std::array<double, 3> ColourChart::albedo(double x, double y) const {
+  const Vec2 lo = outline_lo(), hi = outline_hi();
+  if (x < lo.x() || y < lo.y() || x > hi.x() || y > hi.y()) return {-1.0, -1.0, -1.0};
+  const double pitch = patch_m + gap_m;
+  const double u = x / pitch, v = y / pitch;
+  const auto iu = static_cast<long>(std::floor(u)), iv = static_cast<long>(std::floor(v));
+  if (iu < 0 || iv < 0 || iu >= cols || iv >= rows || x - iu * pitch >= patch_m || y - iv * pitch >= patch_m)
+    return {body_albedo, body_albedo, body_albedo};
+  return patch_rgb[static_cast<std::size_t>(iv * cols + iu)];
+}
+
+double ColourChart::max_albedo() const {
+  double m = body_albedo;
+  for (const auto& p : patch_rgb) m = std::max({m, p[0], p[1], p[2]});
+  return m;
+}
+
+void ColourChart::check() const {
+  if (cols < 1 || rows < 1) throw DataError("colour chart: needs at least one row and one column of patches");
+  if (patch_rgb.size() != static_cast<std::size_t>(cols * rows))
+    throw DataError("colour chart: " + std::to_string(patch_rgb.size()) + " patch colours for " +
+                    std::to_string(cols * rows) + " patches");
+  if (!(patch_m > 0 && gap_m >= 0 && border_m >= 0)) throw DataError("colour chart: sizes must be > 0");
+  if (!(body_albedo >= 0 && body_albedo <= 1)) throw DataError("colour chart: body_albedo must be in [0, 1]");
+  for (const auto& p : patch_rgb)
+    for (double c : p)
+      if (!(c > -0.5 && c <= 1.5))
+        throw DataError("colour chart: a patch reflectance component must be in (-0.5, 1.5] (linear sRGB)");
+}
+
+ImageF render_colour_chart(const CameraModel& camera, const ColourChart& chart, const Rigid3& cam_from_board,
+                           const PlaneLighting& lighting, int samples, int threads) {
+  chart.check();
+  const double pitch = chart.patch_m + chart.gap_m;
+  return render_planar(
+      camera, cam_from_board, lighting, samples, 3, threads, [&](const Vec2& p) { return chart.albedo(p.x(), p.y()); },
+      [&](const Vec2& p) -> std::int64_t {
+        const auto iu = static_cast<std::int64_t>(std::floor(p.x() / pitch));
+        const auto iv = static_cast<std::int64_t>(std::floor(p.y() / pitch));
+        const bool in_patch = iu >= 0 && iv >= 0 && iu < chart.cols && iv < chart.rows &&
+                              p.x() - iu * pitch < chart.patch_m && p.y() - iv * pitch < chart.patch_m;
+        return in_patch ? iv * chart.cols + iu : -3;
+      });
+}
 
 ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, const Rigid3& cam_from_board,
                          const PlaneLighting& lighting, int samples, int channels, int threads) {
@@ -239,7 +300,7 @@ namespace {
 // Poses of a planar target whose printed area is [lo, hi] (board frame, z = 0); `what`
 // names the target in the error.
 std::vector<Rigid3> planar_poses(const CameraModel& camera, const Vec2& lo, const Vec2& hi, int count,
-                                 std::uint64_t seed, const std::string& what) {
+                                 std::uint64_t seed, const std::string& what, double max_tilt_deg = 40.0) {
   if (count < 1) return {};
   const auto& t = camera.truth();
   const double w = camera.width(), h = camera.height();
@@ -275,7 +336,7 @@ std::vector<Rigid3> planar_poses(const CameraModel& camera, const Vec2& lo, cons
       double shrink = 1.0 - 0.4 * std::min(1.0, attempt / 1000.0);
       double fill = uniform(0.3, 0.6) * shrink;
       double distance = t.fx_px * board_w / (fill * w);
-      double tilt = deg_to_rad(40.0) * shrink;
+      double tilt = deg_to_rad(max_tilt_deg) * shrink;
       double ax = uniform(-tilt, tilt), ay = uniform(-tilt, tilt), roll = uniform(-deg_to_rad(20), deg_to_rad(20));
       // Spread the board centres over a 3 x 3 grid of image regions.
       int cell = k % 9;
@@ -317,6 +378,15 @@ std::vector<Rigid3> charuco_poses(const CameraModel& camera, const CharucoBoard&
   return planar_poses(camera, lo, hi, count, seed,
                       "charuco_poses: a " + std::to_string(board.squares_x) + "x" +
                           std::to_string(board.squares_y) + " ChArUco board");
+}
+
+std::vector<Rigid3> colour_chart_poses(const CameraModel& camera, const ColourChart& chart, int count,
+                                       std::uint64_t seed) {
+  chart.check();
+  return planar_poses(camera, chart.outline_lo(), chart.outline_hi(), count, seed,
+                      "colour_chart_poses: a " + std::to_string(chart.cols) + "x" + std::to_string(chart.rows) +
+                          " colour chart",
+                      20.0);
 }
 
 ImageF uniform_field(const CameraModel& camera, double radiance, int channels) {

@@ -30,9 +30,10 @@ double peak_of(const ImageF& img) { return *std::max_element(img.values().begin(
 
 TEST(SceneRender, EveryNamedSceneHasTheCamerasSizeAndTheRequestedChannels) {
   sim::SimWorld world(sim::test::small_config());
-  for (const char* name : {"sphere", "white", "chessboard", "charuco", "flat", "dark"}) {
+  for (const char* name : {"sphere", "white", "chessboard", "charuco", "flat", "dark", "colour-chart"}) {
     sim::SceneRequest q;
     q.kind = sim::scene_kind_from_string(name);
+    q.chart.patch_rgb.assign(24, {0.2, 0.3, 0.4});
     EXPECT_STREQ(sim::to_string(q.kind), name);
     q.channels = 3;
     const sim::SceneRender r = sim::render_scene(world, q);
@@ -41,6 +42,43 @@ TEST(SceneRender, EveryNamedSceneHasTheCamerasSizeAndTheRequestedChannels) {
     EXPECT_EQ(r.radiance.channels(), 3) << name;
     EXPECT_FALSE(r.description.empty()) << name;
   }
+}
+
+TEST(SceneRender, TheColourChartShowsEachPatchInItsColourUnderTheLedsWhite) {
+  sim::SimConfig config = sim::test::small_config(12.0, 640, 480);
+  config.led.color = {1.0, 0.8, 0.6};
+  sim::SimWorld world(config);
+  sim::SceneRequest q;
+  q.kind = sim::SceneKind::ColourChart;
+  q.channels = 3;
+  for (int k = 0; k < 24; ++k) q.chart.patch_rgb.push_back({0.05 + 0.03 * k, 0.5, 0.9 - 0.035 * k});
+  q.chart.patch_rgb[5] = {-0.05, 0.4, 0.5};  // outside sRGB, as the ColorChecker's cyan is
+  const sim::SceneRender r = sim::render_scene(world, q);
+  EXPECT_THAT(r.description, ::testing::HasSubstr("6x4 colour chart of 40 mm patches, view 0"));
+  const Rigid3 pose = sim::colour_chart_poses(world.camera(), q.chart, 1, config.seed).at(0);
+  const double E = world.irradiance_for_fill(0.5, q.exposure_s, q.chart.max_albedo());
+  for (int k = 0; k < 24; ++k) {
+    const Vec2 c = q.chart.patch_centre(k);
+    const Vec2 px = world.camera().project(pose * Vec3(c.x(), c.y(), 0.0));
+    const int x = static_cast<int>(std::lround(px.x())), y = static_cast<int>(std::lround(px.y()));
+    for (int ch = 0; ch < 3; ++ch) {
+      const double expected =
+          q.chart.patch_rgb[static_cast<std::size_t>(k)][static_cast<std::size_t>(ch)] * E / kPi * config.led.color[static_cast<std::size_t>(ch)];
+      EXPECT_NEAR(r.radiance.at(x, y, ch), expected, 1e-4 * std::abs(E) + 1e-5 * std::abs(expected)) << "patch " << k << " channel " << ch;
+    }
+  }
+  // The chart's body is black felt-like: darker than every patch.
+  const Vec2 body = world.camera().project(pose * Vec3(-0.006, -0.006, 0.0));
+  EXPECT_LT(r.radiance.at(static_cast<int>(body.x()), static_cast<int>(body.y()), 1), 0.04 * E / kPi);
+  // A monochrome camera sees w . RGB.
+  q.channels = 1;
+  const sim::SceneRender mono = sim::render_scene(world, q);
+  const auto& w = config.camera.mono_weights;
+  const Vec2 c0 = world.camera().project(pose * Vec3(q.chart.patch_centre(0).x(), q.chart.patch_centre(0).y(), 0.0));
+  const int x0 = static_cast<int>(std::lround(c0.x())), y0 = static_cast<int>(std::lround(c0.y()));
+  EXPECT_NEAR(mono.radiance.at(x0, y0), w[0] * r.radiance.at(x0, y0, 0) + w[1] * r.radiance.at(x0, y0, 1) + w[2] * r.radiance.at(x0, y0, 2), 1e-6);
+  q.chart.patch_rgb.pop_back();
+  EXPECT_THROW(sim::render_scene(world, q), DataError);
 }
 
 TEST(SceneRender, TheFlatFieldReachesHalfTheFullWellAtTheGivenExposureAndTheDarkFieldIsBlack) {

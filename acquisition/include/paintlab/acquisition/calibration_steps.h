@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "paintlab/acquisition/calibration_capture.h"
+#include "paintlab/calibration/colour.h"
 #include "paintlab/calibration/dark.h"
 #include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/light.h"
@@ -70,6 +71,14 @@ calib::LightCalibration light_step(const StepImages& in, const calib::RigCalibra
 // more of the reference's lit pixels are clipped than rig.tolerances.saturated_frac.
 calib::ScaleCalibration scale_step(const StepImages& in, const calib::RigCalibration& cal, const RigConfig& rig,
                                    const std::vector<double>& angles_deg, double albedo);
+
+// The colour characterisation from images of a ColorChecker 24: linear RGB EXR files (R, G, B
+// channels; `paintlab hdr merge` of a colour stack, or the simulator's render), the chart
+// found and measured in each (calibration/colour.h), patch values averaged over the images
+// (repeated shots of one set-up), the model fitted. UsageError without files (capturing the
+// chart needs the colour measurement path, issue 14); DataError for an image without R, G, B.
+calib::ColourCalibration colour_step(const StepImages& in, const calib::ChartReference& reference,
+                                     const calib::ColourFitOptions& options);
 
 // ---- The radiometric steps ----
 

@@ -24,7 +24,9 @@
 // is the camera value that perfect white gives; `to_xyz_balanced` takes values already
 // divided by it per channel (the white-balanced values the per-channel radiometric
 // calibration yields on the white reference sphere), so that (1, 1, 1) is D65 white.
+#include <array>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -32,6 +34,7 @@
 
 #include "paintlab/calibration/record.h"
 #include "paintlab/core/colour.h"
+#include "paintlab/core/image.h"
 #include "paintlab/core/json.h"
 
 namespace paintlab::calib {
@@ -49,6 +52,8 @@ struct ChartReference {
   // Each patch's XYZ adapted to D65 (Bradford), Y = 1 for the perfect white diffuser.
   std::vector<colour::Xyz> xyz_d65() const;
   std::vector<colour::Lab> lab_d65() const;
+  // As linear sRGB reflectances (a colour outside sRGB has a negative component).
+  std::vector<std::array<double, 3>> srgb_reflectances() const;
   int index_of(const std::string& patch) const;  // -1 when the chart has no such patch
 
   // A CGATS file with SAMPLE_ID and either LAB_L LAB_A LAB_B or XYZ_X XYZ_Y XYZ_Z (0..100).
@@ -117,6 +122,27 @@ struct ColourCalibration {
   void save(const std::filesystem::path& path) const;
   static ColourCalibration load(const std::filesystem::path& path);
 };
+
+// Where a ColorChecker 24 is in an image and what each patch recorded. The corners are those
+// of the patch area (the patches plus a tenth of a patch), next to A01, A06, D06 and D01.
+struct ChartDetection {
+  std::array<Eigen::Vector2d, 4> corners;
+  std::vector<Eigen::Vector2d> centres;  // per patch, the reference's order
+  double pitch_px = 0.0;                 // patch-to-patch distance at the chart's centre
+  double orientation_margin = 0.0;       // how much worse the next best orientation fits (>= 3)
+  std::vector<PatchMeasurement> patches;
+};
+
+// Finds a ColorChecker 24 (4 rows x 6 patches; `reference` holds its 24 patches row by row,
+// A01 .. D06) in a linear RGB image (dark-subtracted, linearised; any scale) and measures each
+// patch over its central square (a fifth of the patch's area, outliers beyond 4 MADs of the
+// patch's median left out), its values at or above `saturation` counted as clipped. The chart
+// is found by OpenCV's Macbeth chart detector (opencv_contrib mcc) on a tone-mapped copy; its
+// orientation is then chosen among the four the grid allows as the one whose patches an affine
+// colour map fits best. CalibrationError when no chart is found, when it is too small (a
+// pitch under 24 px) or when no orientation fits clearly better than another.
+ChartDetection find_colour_chart(const ImageF& linear_rgb, const ChartReference& reference,
+                                 double saturation = std::numeric_limits<double>::infinity());
 
 // Fits the model to the measured patches (matched to the reference by name). Throws
 // CalibrationError when fewer usable patches remain than the model needs (the model's terms plus

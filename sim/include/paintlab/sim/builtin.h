@@ -14,6 +14,15 @@ const char* builtin_rig_toml();
 const char* builtin_paint_toml();
 brdf::PaintSpec builtin_paint();
 
+// The paint a simulated sample wears: a paint file's (its spec and text) or, without a file,
+// the built-in one. UsageError naming `option` for a MERL table (it has no analytic form to
+// simulate, sparkle and all).
+struct SimulatedPaint {
+  brdf::PaintSpec spec;
+  std::string toml_text;
+};
+SimulatedPaint simulated_paint(const std::string& file, const std::string& option);
+
 // The rig `paintlab demo` writes: the built-in rig with its calibration folder "calib"
 // beside the rig file; with `quick`, half the resolution (pixels twice as large, the
 // simulated intrinsics and blur halved, pixel centres kept), light every 10 deg and 8

@@ -1,6 +1,7 @@
 #pragma once
 // What the simulated camera sees, by name: the painted sphere, the white reference sphere,
-// a chessboard or ChArUco board, a uniform field (diffuser) or a dark field (lens cap), as
+// a chessboard or ChArUco board, a colour chart lit by the LED's white, a uniform field
+// (diffuser) or a dark field (lens cap), as
 // scene radiance in W sr^-1 m^-2 with a one-line description. `paintlab sim render` writes
 // it; calibration stages show it to the simulated camera (SimRig::show).
 #include <string>
@@ -14,8 +15,9 @@
 
 namespace paintlab::sim {
 
-enum class SceneKind { Sphere, White, Chessboard, Charuco, Flat, Dark };
-const char* to_string(SceneKind k);  // "sphere", "white", "chessboard", "charuco", "flat", "dark"
+enum class SceneKind { Sphere, White, Chessboard, Charuco, Flat, Dark, ColourChart };
+// "sphere", "white", "chessboard", "charuco", "flat", "dark", "colour-chart"
+const char* to_string(SceneKind k);
 // DataError naming `where` and every scene for another name.
 SceneKind scene_kind_from_string(const std::string& s, std::string_view where = {});
 
@@ -27,6 +29,7 @@ struct SceneRequest {
   int view = 0;             // which generated board pose (chessboard, charuco): 0, 1, ...
   int views = 0;            // boards: poses generated for this many views (0: view + 1)
   Chessboard chessboard{};  // the chessboard's corners and squares
+  ColourChart chart{};      // colour-chart: the patches and their colours (the caller gives them)
   // The exposure the lighting is set for: a board's white and the uniform field reach half
   // the full well at the image centre in this time.
   double exposure_s = 0.01;

@@ -4,6 +4,7 @@
 // chessboard or ChArUco board at a pose with sub-pixel accurate edges, a dark frame and a
 // uniform field for flat fielding. The white reference sphere is SimWorld::render_with()
 // with a brdf::Lambertian paint.
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -55,11 +56,35 @@ struct CharucoBoard {
   void check() const;
 };
 
-// How a planar target is lit: uniformly (radiance = albedo * irradiance / pi) in front of
-// a background of constant radiance.
+// A colour chart laid out as X-Rite's ColorChecker Classic: rows x cols square patches with
+// black gaps on a black body. Board frame: origin at the top-left corner of the first patch
+// (A01), x along a row (A01 -> A06), y down the rows (A -> D), z = 0 on the chart, +z away
+// from the print. Patch colours are linear sRGB reflectances (D65), row-major, as a chart
+// reference's patches A01, A02, ... D06; a colour outside sRGB has a negative component.
+struct ColourChart {
+  int cols = 6;
+  int rows = 4;
+  double patch_m = 0.04;        // side of a patch
+  double gap_m = 0.004;         // black between patches
+  double border_m = 0.012;      // black body around the patches
+  double body_albedo = 0.03;
+  std::vector<std::array<double, 3>> patch_rgb;
+
+  Vec2 outline_lo() const;  // the chart body, board frame
+  Vec2 outline_hi() const;
+  Vec2 patch_centre(int k) const;  // patch k (row-major) in the board frame
+  // Reflectance at a board point; -1 in every channel outside the chart.
+  std::array<double, 3> albedo(double x, double y) const;
+  double max_albedo() const;  // the brightest patch channel
+  void check() const;         // DataError naming the bad field
+};
+
+// How a planar target is lit: uniformly (radiance = albedo * irradiance / pi, times the
+// illuminant's colour per channel) in front of a background of constant radiance.
 struct PlaneLighting {
   double irradiance_w_m2 = 1.0;
   double background_radiance = 0.0;
+  std::array<double, 3> colour{1.0, 1.0, 1.0};  // the illuminant in scene linear sRGB ((1,1,1) = D65)
 };
 
 // Radiance of the chessboard at cam_from_board. Pixels whose footprint crosses an edge
@@ -72,6 +97,10 @@ ImageF render_chessboard(const CameraModel& camera, const Chessboard& board, con
 // the same camera). Marker bits come from OpenCV's dictionary.
 ImageF render_charuco(const CameraModel& camera, const CharucoBoard& board, const Rigid3& cam_from_board,
                       const PlaneLighting& lighting = {}, int samples = 16, int channels = 1, int threads = 0);
+
+// Radiance of a colour chart at cam_from_board, three channels (scene linear sRGB).
+ImageF render_colour_chart(const CameraModel& camera, const ColourChart& chart, const Rigid3& cam_from_board,
+                           const PlaneLighting& lighting = {}, int samples = 16, int threads = 0);
 
 // Pixel positions of board-frame points (cv::projectPoints with the camera's K and dist).
 std::vector<Vec2> project_points(const CameraModel& camera, const Rigid3& cam_from_board,
@@ -86,6 +115,11 @@ std::vector<Rigid3> chessboard_poses(const CameraModel& camera, const Chessboard
 // The same for a ChArUco board (its printed area, squares and margin).
 std::vector<Rigid3> charuco_poses(const CameraModel& camera, const CharucoBoard& board, int count,
                                   std::uint64_t seed);
+
+// The same for a colour chart, with milder tilts (at most about 20 deg: a chart is measured
+// facing the camera, and a steep one shows the print's gloss).
+std::vector<Rigid3> colour_chart_poses(const CameraModel& camera, const ColourChart& chart, int count,
+                                       std::uint64_t seed);
 
 // A uniform scene radiance over the whole image (a diffuser in front of the lens: flat field).
 ImageF uniform_field(const CameraModel& camera, double radiance, int channels = 1);
