@@ -270,6 +270,21 @@ CheckReport run_checks(const RigConfig& rig, const RigCalibration& cal, const Li
              "the reference was over-exposed: run `paintlab calibrate scale` with a shorter exposure"));
   }
 
+  if (cal.colour()) {
+    const ColourCalibration& c = *cal.colour();
+    const std::string redo = "`paintlab calibrate colour --rig " + rig.file.filename().string() + " --images CHART.exr`";
+    CheckItem age = item("colour.age_days", std::string(kColourFile) + " age", Limit::AtMost, c.provenance.age_days(),
+                         tol.calibration_max_age_days, "days", "stale: photograph the chart again and run " + redo);
+    if (!std::isfinite(age.value)) age.detail = "its date '" + c.provenance.date + "' is not readable";
+    add(age);
+    add(item("colour.mean_de00", "mean CIEDE2000 over the chart's patches", Limit::AtMost, c.mean_de00,
+             tol.colour_mean_de00, "",
+             "light the chart evenly without glare, expose it unclipped, check the reference file is your chart's, then "
+             "run " + redo + " (or --model root-polynomial-2)"));
+    add(item("colour.max_de00", "CIEDE2000 of the worst patch (" + c.worst_patch + ")", Limit::AtMost, c.max_de00,
+             tol.colour_max_de00, "", "look at that patch: dirty, scratched, in a reflection or clipped? Then run " + redo));
+  }
+
   // --- live evidence ---
   if (live.sphere) {
     const auto& s = *live.sphere;

@@ -45,6 +45,10 @@ RigCalibration RigCalibration::load(const std::filesystem::path& dir) {
     }
     c.files_[name] = std::move(f);
   }
+  if (std::filesystem::exists(dir / kColourFile)) {
+    c.colour_ = ColourCalibration::load(dir / kColourFile);
+    c.colour_provenance_ = c.colour_->provenance;
+  }
   return c;
 }
 

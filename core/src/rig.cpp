@@ -142,6 +142,8 @@ Tolerances parse_tolerances(const ConfigTable& t) {
   x.scale_error_rel = t.number("scale_error_rel", x.scale_error_rel, Bounds::positive());
   x.saturated_frac = t.number("saturated_frac", x.saturated_frac, Bounds::closed(0.0, 1.0));
   x.calibration_max_age_days = t.number("calibration_max_age_days", x.calibration_max_age_days, Bounds::positive());
+  x.colour_mean_de00 = t.number("colour_mean_de00", x.colour_mean_de00, Bounds::positive());
+  x.colour_max_de00 = t.number("colour_max_de00", x.colour_max_de00, Bounds::positive());
   t.finish();
   return x;
 }
@@ -252,7 +254,9 @@ Json RigConfig::to_json() const {
         {"light_drift_rel", t.light_drift_rel},
         {"scale_error_rel", t.scale_error_rel},
         {"saturated_frac", t.saturated_frac},
-        {"calibration_max_age_days", t.calibration_max_age_days}}},
+        {"calibration_max_age_days", t.calibration_max_age_days},
+        {"colour_mean_de00", t.colour_mean_de00},
+        {"colour_max_de00", t.colour_max_de00}}},
       {"simulated", all_simulated()}};
   if (filter_wheel) j["devices"]["filter_wheel"] = {{"kind", filter_wheel->kind}};
   return j;

@@ -9,7 +9,9 @@
 #include <functional>
 #include <random>
 
+#include "paintlab/calibration/check.h"
 #include "paintlab/calibration/colour.h"
+#include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
 #include "test_util.h"
 
@@ -243,4 +245,33 @@ TEST(ColourFit, TheCalibrationFileRoundTrips) {
   j["model"] = "cubic";
   EXPECT_THAT(test::error_message<DataError>([&] { ColourCalibration::from_json(j, "colour.json"); }),
               HasSubstr("unknown colour model 'cubic' (expected matrix, root-polynomial-2 or root-polynomial-3)"));
+}
+
+TEST(ColourCheck, TheRigCheckJudgesColourJsonAgainstItsTolerances) {
+  const ChartReference ref = ChartReference::load(colorchecker());
+  ColourCalibration cal = fit_colour(ref, shoot(ref, 0.8, 0.002), {});
+  cal.provenance = Provenance::make("colour", {});
+  test::TempDir dir;
+  cal.save(dir / kColourFile);
+  RigConfig rig = RigConfig::load(test::source_dir() / "examples" / "rig-sim.toml");
+  rig.calibration_dir = dir.path();
+  const RigCalibration loaded = RigCalibration::load(rig);
+  ASSERT_TRUE(loaded.colour());
+  CheckReport report = run_checks(rig, loaded);
+  const CheckItem* mean = report.find("colour.mean_de00");
+  ASSERT_NE(mean, nullptr);
+  EXPECT_TRUE(mean->pass);
+  EXPECT_NEAR(mean->value, cal.mean_de00, 1e-12);
+  EXPECT_DOUBLE_EQ(mean->tolerance, 1.0);  // the default of [tolerances] colour_mean_de00
+  EXPECT_TRUE(report.find("colour.max_de00")->pass);
+  EXPECT_TRUE(report.find("colour.age_days")->pass);
+  // A tighter tolerance than the chart reached: the check fails and says what to do.
+  rig.tolerances.colour_mean_de00 = 0.01;
+  report = run_checks(rig, loaded);
+  EXPECT_FALSE(report.find("colour.mean_de00")->pass);
+  EXPECT_THAT(report.find("colour.mean_de00")->action, HasSubstr("paintlab calibrate colour --rig rig-sim.toml"));
+  EXPECT_THAT(report.table(), HasSubstr("colour.mean_de00"));
+  // Without colour.json there is no colour check (a monochrome rig).
+  std::filesystem::remove(dir / kColourFile);
+  EXPECT_EQ(run_checks(rig, RigCalibration::load(rig)).find("colour.mean_de00"), nullptr);
 }

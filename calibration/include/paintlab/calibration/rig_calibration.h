@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "paintlab/calibration/colour.h"
 #include "paintlab/calibration/dark.h"
 #include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/intrinsics.h"
@@ -71,6 +72,10 @@ class RigCalibration {
   const std::optional<SphereFit>& sphere() const { return sphere_; }
   const std::optional<LightCalibration>& light() const { return light_; }
   const std::optional<ScaleCalibration>& scale() const { return scale_; }
+  // colour.json (`paintlab calibrate colour`): optional, a colour camera's; not a step of
+  // `calibrate all` yet, so not among files().
+  const std::optional<ColourCalibration>& colour() const { return colour_; }
+  const std::optional<Provenance>& colour_provenance() const { return colour_provenance_; }
 
   // --- geometry (each throws CalibrationError naming the missing file) ---
   const CameraModel& camera() const;
@@ -94,6 +99,8 @@ class RigCalibration {
   std::optional<ResponseCurve> response_;
   std::optional<FlatField> flat_;
   std::optional<SphereFit> sphere_;
+  std::optional<ColourCalibration> colour_;
+  std::optional<Provenance> colour_provenance_;
   std::optional<LightCalibration> light_;
   std::optional<ScaleCalibration> scale_;
 };

@@ -75,6 +75,8 @@ struct Tolerances {
   double scale_error_rel = 0.02;          // scale: uncertainty of the absolute scale
   double saturated_frac = 0.0;            // scale: saturated reference pixels allowed
   double calibration_max_age_days = 30.0; // any: older calibrations are stale
+  double colour_mean_de00 = 1.0;          // colour: mean CIEDE2000 over the chart's patches
+  double colour_max_de00 = 3.0;           // colour: the worst patch's CIEDE2000
 };
 
 struct RigConfig {
