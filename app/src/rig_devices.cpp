@@ -5,6 +5,7 @@
 #include "paintlab/devices/device_config.h"
 #include "paintlab/devices/gpiod_light.h"
 #include "paintlab/devices/modbus_turntable.h"
+#include "paintlab/devices/serial_filter_wheel.h"
 #include "paintlab/sim/peers/sim_light.h"
 #include "paintlab/sim/config.h"
 #include "paintlab/sim/peers/sim_rig.h"
@@ -15,6 +16,7 @@ RigDevices::RigDevices() = default;
 RigDevices::RigDevices(RigDevices&&) noexcept = default;
 RigDevices& RigDevices::operator=(RigDevices&&) noexcept = default;
 RigDevices::~RigDevices() {
+  filter_wheel.reset();
   camera.reset();
   light.reset();
   turntable.reset();
@@ -35,9 +37,12 @@ RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& opti
   const bool sim_table = options.turntable && rig.turntable.kind == "sim";
   const bool sim_light = options.light && rig.light.kind == "sim";
   const bool sim_camera = options.camera && rig.camera.kind == "sim";
+  const bool wheel = options.filter_wheel && rig.filter_wheel;
+  const bool sim_wheel = wheel && rig.filter_wheel->kind == "sim";
   const bool all_sim = (!options.turntable || rig.turntable.kind == "sim") &&
-                       (!options.light || rig.light.kind == "sim") && (!options.camera || rig.camera.kind == "sim");
-  if (sim_table || sim_light || sim_camera) {
+                       (!options.light || rig.light.kind == "sim") && (!options.camera || rig.camera.kind == "sim") &&
+                       (!wheel || sim_wheel);
+  if (sim_table || sim_light || sim_camera || sim_wheel) {
     sim::SimRigOptions so;
     so.turntable = sim_table;
     if (sim_table) {
@@ -47,6 +52,7 @@ RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& opti
     }
     so.light = sim_light;
     so.camera = sim_camera;
+    so.filter_wheel = sim_wheel;
     // A mix of real and simulated devices runs on the wall clock.
     so.clock = all_sim ? nullptr : &system_clock();
     d.sim = std::make_unique<sim::SimRig>(rig, so);
@@ -82,6 +88,11 @@ RigDevices open_rig_devices(const RigConfig& rig, const OpenDevicesOptions& opti
     auto cam = dev::AravisCamera::open(cc);
     if (!cam) throw cam.error();
     d.camera = std::move(*cam);
+  }
+  if (wheel) {
+    dev::SerialFilterWheelConfig wc = dev::filter_wheel_config(*rig.filter_wheel).serial;
+    if (sim_wheel) wc.port = d.sim->filter_wheel()->port();
+    d.filter_wheel = std::make_unique<dev::SerialFilterWheel>(wc, *d.clock);
   }
   return d;
 }

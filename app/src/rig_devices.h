@@ -1,9 +1,10 @@
 #pragma once
 // The one factory that maps rig.toml device kinds to concrete drivers (STYLE.md "Devices").
 // Real kinds get their drivers (modbus-tcp / modbus-rtu: ModbusTurntable, gpiod: GpiodLight,
-// aravis: AravisCamera). Kind "sim" starts the simulated peers in-process (sim::SimRig) and
-// connects the REAL drivers to them: the turntable over Modbus TCP (or RTU on a pty) and
-// the camera over GigE Vision, both on 127.0.0.1; the LED is a SimLight.
+// aravis: AravisCamera, serial: SerialFilterWheel). Kind "sim" starts the simulated peers
+// in-process (sim::SimRig) and connects the REAL drivers to them: the turntable over Modbus
+// TCP (or RTU on a pty), the camera over GigE Vision, both on 127.0.0.1, the filter wheel on
+// a pty pair; the LED is a SimLight.
 //
 //   RigConfig rig = load_rig("rig.toml");
 //   RigDevices d = open_rig_devices(rig);
@@ -16,6 +17,7 @@
 #include "paintlab/core/clock.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/devices/camera.h"
+#include "paintlab/devices/filter_wheel.h"
 #include "paintlab/devices/light.h"
 #include "paintlab/devices/turntable.h"
 
@@ -31,6 +33,7 @@ struct RigDevices {
   std::unique_ptr<dev::Turntable> turntable;
   std::unique_ptr<dev::Light> light;
   std::unique_ptr<dev::Camera> camera;
+  std::unique_ptr<dev::FilterWheel> filter_wheel;  // when rig.toml has [devices.filter_wheel]
   // The clock every driver waits on: the world's virtual clock when all devices are
   // simulated, else the wall clock. Never null after open_rig_devices.
   Clock* clock = nullptr;
@@ -45,6 +48,7 @@ struct OpenDevicesOptions {
   bool turntable = true;
   bool light = true;
   bool camera = true;
+  bool filter_wheel = true;
 };
 
 // Reads a rig.toml and checks all of it, the same for every command: the keys RigConfig

@@ -80,7 +80,7 @@ void check_geometry(const SimConfig& c, const std::function<void(const char* sec
 }
 
 const std::set<std::string>& top_level_keys() {
-  static const std::set<std::string> keys{"seed", "clock_speed", "camera", "sensor", "led", "sphere", "scene", "render"};
+  static const std::set<std::string> keys{"seed", "clock_speed", "camera", "sensor", "led", "sphere", "scene", "render", "filters"};
   return keys;
 }
 
@@ -229,6 +229,13 @@ SimConfig SimConfig::parse(const ConfigTable& sim, const RigGeometry& nominal) {
     t->finish();
   }
 
+  if (auto t = sim.maybe_table("filters")) {
+    auto& f = c.filters;
+    for (auto [key, value] : {std::pair{"red", &f.red}, {"green", &f.green}, {"blue", &f.blue}})
+      if (t->has(key)) *value = t->triple(key, Bounds::closed(0.0, 1.0));
+    t->finish();
+  }
+
   check_geometry(c, [&](const char* section, const char* key, const std::string& message) {
     if (auto t = sim.maybe_table(section); t && t->has(key)) t->fail(key, message);
     sim.fail(section, std::string(key) + ": " + message);
@@ -320,7 +327,8 @@ Json SimConfig::to_json() const {
       {"render",
        {{"edge_samples", render.edge_samples},
         {"edge_shading_samples", render.edge_shading_samples},
-        {"sparkle_floor", render.sparkle_floor}}}};
+        {"sparkle_floor", render.sparkle_floor}}},
+      {"filters", {{"red", filters.red}, {"green", filters.green}, {"blue", filters.blue}}}};
 }
 
 }  // namespace paintlab::sim

@@ -42,6 +42,19 @@ SimRig::SimRig(const RigConfig& rig, SimRigOptions options) : cache_(std::make_s
     light_ = std::make_unique<SimLight>(lo, *clock_, [w](bool on) { w->set_led_on(on); });
     world_->set_led_on(false);
   }
+  if (options.filter_wheel && rig.filter_wheel && rig.filter_wheel->kind == "sim") {
+    const dev::FilterWheelSetup setup = dev::filter_wheel_config(*rig.filter_wheel);
+    SimFilterWheelOptions wo;
+    wo.slots = setup.sim_slots;
+    wheel_ = std::make_unique<SimFilterWheel>(wo, *clock_);
+    const auto& w = world_->config().camera.mono_weights;
+    const auto& f = world_->config().filters;
+    wheel_mix_.assign(static_cast<std::size_t>(setup.sim_slots), w);  // empty slots pass everything
+    const std::array<double, 3>* filter[3] = {&f.red, &f.green, &f.blue};
+    for (std::size_t c = 0; c < 3; ++c)
+      for (std::size_t k = 0; k < 3; ++k)
+        wheel_mix_[static_cast<std::size_t>(setup.channel_slot[c] - 1)][k] = w[k] * (*filter[c])[k];
+  }
   if (options.camera) {
     dev::AravisCameraConfig cc = dev::camera_config(rig.camera, rig.geometry);
     GigeCameraOptions go;
@@ -58,6 +71,7 @@ SimRig::SimRig(const RigConfig& rig, SimRigOptions options) : cache_(std::make_s
 SimRig::~SimRig() {
   // The camera first: its fill callback uses the world, the table and the light.
   camera_.reset();
+  wheel_.reset();
   turntable_.reset();
   light_.reset();
 }
@@ -77,7 +91,8 @@ ImageF grey_to_rgb(const ImageF& grey) {
 // depth; the camera's BlackLevel moves the sensor's black level (in the output's units). A
 // Bayer format samples the scene's RGB through the colour-filter array (a grey scene given
 // as one channel is taken as equal RGB).
-void expose_frame(SimWorld& world, const ImageF& radiance, const FrameRequest& r, std::uint16_t* out) {
+void expose_frame(SimWorld& world, const ImageF& radiance, const FrameRequest& r, std::uint16_t* out,
+                  const std::array<double, 3>* filter = nullptr) {
   ExposureSettings es;
   es.exposure_s = r.exposure_s;
   es.gain_db = r.gain_db;
@@ -87,11 +102,13 @@ void expose_frame(SimWorld& world, const ImageF& radiance, const FrameRequest& r
   if (cfa != dev::CfaPattern::None) {
     es.cfa = std::array<int, 4>{dev::cfa_colour(cfa, 0, 0), dev::cfa_colour(cfa, 1, 0), dev::cfa_colour(cfa, 0, 1),
                                 dev::cfa_colour(cfa, 1, 1)};
+  } else if (filter) {
+    es.mono_mix = *filter;  // a monochrome sensor behind the wheel's filter
   } else if (radiance.channels() == 3) {
     es.mono_mix = world.config().camera.mono_weights;  // a monochrome sensor sees w . RGB
   }
-  const Image<std::uint16_t> raw =
-      world.sensor().expose(cfa != dev::CfaPattern::None && radiance.channels() == 1 ? grey_to_rgb(radiance) : radiance, es);
+  const bool needs_rgb = (cfa != dev::CfaPattern::None || filter) && radiance.channels() == 1;
+  const Image<std::uint16_t> raw = world.sensor().expose(needs_rgb ? grey_to_rgb(radiance) : radiance, es);
   const auto& sp = world.config().sensor;
   const double offset = (r.black_level - sp.black_level_dn) * std::ldexp(1.0, bits - sp.adc_bits);
   const double max = std::ldexp(1.0, bits) - 1.0;
@@ -107,7 +124,12 @@ void expose_frame(SimWorld& world, const ImageF& radiance, const FrameRequest& r
 
 FrameSource SimRig::static_source(std::shared_ptr<const ImageF> radiance) {
   SimWorld* w = world_.get();
-  return [w, radiance](const FrameRequest& r, std::uint16_t* out) { expose_frame(*w, *radiance, r, out); };
+  const SimFilterWheel* wheel = wheel_.get();
+  const std::vector<std::array<double, 3>>* mix = &wheel_mix_;
+  return [w, radiance, wheel, mix](const FrameRequest& r, std::uint16_t* out) {
+    // A grey target seen through the filter in front of the lens.
+    expose_frame(*w, *radiance, r, out, wheel ? &(*mix)[static_cast<std::size_t>(wheel->position() - 1)] : nullptr);
+  };
 }
 
 void SimRig::show(std::shared_ptr<const ImageF> radiance) {
@@ -123,13 +145,15 @@ FrameSource SimRig::world_source() {
   TurntableServer* table = turntable_.get();
   SimLight* light = light_.get();
   std::shared_ptr<Cache> cache = cache_;
-  return [w, table, light, cache](const FrameRequest& r, std::uint16_t* out) {
+  const SimFilterWheel* wheel = wheel_.get();
+  const std::vector<std::array<double, 3>>* mix = &wheel_mix_;
+  return [w, table, light, cache, wheel, mix](const FrameRequest& r, std::uint16_t* out) {
     if (table) w->set_table_angle_deg(table->angle_deg());
     if (light) w->set_led_on(light->emitting());
     const double angle = w->table_angle_deg();
     const bool led = w->led_on();
     const void* paint = w->paint().brdf.get();
-    const bool rgb = dev::cfa_pattern(r.format) != dev::CfaPattern::None;
+    const bool rgb = dev::cfa_pattern(r.format) != dev::CfaPattern::None || wheel;
     ImageF radiance;
     {
       std::lock_guard lock(cache->mutex);
@@ -146,7 +170,8 @@ FrameSource SimRig::world_source() {
       }
       radiance = cache->radiance;
     }
-    expose_frame(*w, radiance, r, out);
+    // The wheel's slot when the frame is taken (a frame during a move sees the old slot).
+    expose_frame(*w, radiance, r, out, wheel ? &(*mix)[static_cast<std::size_t>(wheel->position() - 1)] : nullptr);
   };
 }
 

@@ -3,7 +3,9 @@
 // sphere at the table angle the controller reached, lit by the LED SimLight switched.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <vector>
 
 #include "paintlab/core/rig.h"
 #include "paintlab/sim/peers/sim_rig.h"
@@ -89,6 +91,57 @@ TEST(RigDevices, SimulatedRigThroughTheRealDrivers) {
       predicted += w.sensor().expected_raw(radiance.at(x, y), x, y, lit->meta.exposure_s, lit->meta.gain_db) * to16;
   predicted /= 25;
   EXPECT_NEAR(lit_mean, predicted, 0.03 * predicted);
+}
+
+TEST(RigDevices, TheSimulatedFilterWheelThroughTheSerialDriverColoursTheMonochromeFrames) {
+  test::TempDir dir;
+  test::write_text(dir / "rig.toml",
+                   small_sim_rig() + "[devices.filter_wheel]\nkind = \"sim\"\nslot_r = 2\nslot_g = 4\nslot_b = 6\n");
+  RigConfig rig = RigConfig::load(dir / "rig.toml");
+  app::RigDevices d = app::open_rig_devices(rig);
+  ASSERT_TRUE(d.filter_wheel && d.sim && d.sim->filter_wheel());
+  EXPECT_THAT(d.filter_wheel->id(), ::testing::HasSubstr("/dev/pts/"));
+  auto idn = d.filter_wheel->identify();
+  ASSERT_TRUE(idn) << idn.error().what();
+  EXPECT_THAT(*idn, ::testing::HasSubstr("FW102C"));
+  EXPECT_EQ(*d.filter_wheel->slot_count(), 6);
+
+  ASSERT_TRUE(d.turntable->move_to(30.0));
+  ASSERT_TRUE(d.turntable->wait_settled(10.0));
+  ASSERT_TRUE(d.light->on());
+  ASSERT_TRUE(d.camera->set_exposure(0.05));
+  sim::SimWorld& w = d.sim->world();
+  sim::RenderOptions rgb;
+  rgb.mono = false;
+  const ImageF scene = w.render_at(30.0, true, rgb);
+  const auto& wt = w.config().camera.mono_weights;
+  const auto& f = w.config().filters;
+  const auto& sp = w.config().sensor;
+  const double to16 = std::ldexp(1.0, 16 - sp.adc_bits);
+  const int cx = 160, cy = 120;
+  // Slot -> what the monochrome sensor weighs the scene's R, G, B with behind it.
+  const std::vector<std::pair<int, std::array<double, 3>>> slots = {
+      {2, {wt[0] * f.red[0], wt[1] * f.red[1], wt[2] * f.red[2]}},
+      {4, {wt[0] * f.green[0], wt[1] * f.green[1], wt[2] * f.green[2]}},
+      {6, {wt[0] * f.blue[0], wt[1] * f.blue[1], wt[2] * f.blue[2]}},
+      {1, wt}};  // an empty slot
+  for (const auto& [slot, mix] : slots) {
+    SCOPED_TRACE(slot);
+    const double t0 = d.clock->now_s();
+    ASSERT_TRUE(d.filter_wheel->move_to(slot));
+    EXPECT_GT(d.clock->now_s(), t0);  // the move and the settle took time on the rig's clock
+    EXPECT_EQ(d.sim->filter_wheel()->position(), slot);
+    auto frame = d.camera->capture(20.0);
+    ASSERT_TRUE(frame) << frame.error().what();
+    double predicted = 0;
+    for (int y = cy - 2; y <= cy + 2; ++y)
+      for (int x = cx - 2; x <= cx + 2; ++x) {
+        const double L = mix[0] * scene.at(x, y, 0) + mix[1] * scene.at(x, y, 1) + mix[2] * scene.at(x, y, 2);
+        predicted += w.sensor().expected_raw(L, x, y, frame->meta.exposure_s, frame->meta.gain_db) * to16;
+      }
+    predicted /= 25;
+    EXPECT_NEAR(patch_mean(frame->pixels, cx, cy, 2), predicted, 0.03 * predicted);
+  }
 }
 
 TEST(RigDevices, SimulatedTurntableOverRtu) {

@@ -7,6 +7,8 @@
 
 #include "paintlab/devices/aravis_camera.h"
 #include "paintlab/devices/modbus_turntable.h"
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/sim/peers/sim_filter_wheel.h"
 #include "process_util.h"
 #include "test_util.h"
 
@@ -102,6 +104,28 @@ TEST(DevicesCommand, SimulatedRigListsEveryKind) {
   EXPECT_THAT(r.out, ::testing::HasSubstr("table   sim: simulated"));
   EXPECT_THAT(r.out, ::testing::HasSubstr("gpio    "));
   EXPECT_THAT(r.out, ::testing::HasSubstr("usb     "));
+}
+
+TEST(DevicesCommand, TheRigsSerialFilterWheelIsAskedWhoItIs) {
+  // The simulated wheel on a pty pair stands in for a wheel on /dev/ttyUSB0: `paintlab devices`
+  // (another process) opens it with the real driver.
+  sim::SimFilterWheel wheel;
+  test::TempDir dir;
+  const std::string rig = (test::source_dir() / "examples/rig-sim.toml").string();
+  std::string text = read_file(rig);
+  text += "[devices.filter_wheel]\nkind = \"serial\"\nport = \"" + wheel.port() + "\"\nslot_b = 5\n";
+  test::write_text(dir / "rig.toml", text);
+  auto r = test::run_paintlab("devices --rig '" + (dir / "rig.toml").string() + "'", 60);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("wheel   filter wheel serial " + wheel.port() +
+                                          ": THORLABS FW102C/FW212C Filter Wheel version 1.07 (paintlab sim), 6 slots; "
+                                          "R, G, B filters in slots 1, 2, 5"));
+  // No wheel at that port: reported, exit 1.
+  text.replace(text.find(wheel.port()), wheel.port().size(), (dir / "ttyUSB9").string());
+  test::write_text(dir / "rig.toml", text);
+  r = test::run_paintlab("devices --rig '" + (dir / "rig.toml").string() + "'", 60);
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("wheel   serial " + (dir / "ttyUSB9").string() + ": not reachable"));
 }
 
 TEST(DevicesCommand, UnreachableRealDevicesOnLoopbackAreReported) {

@@ -107,6 +107,16 @@ struct RenderParams {
   double sparkle_floor = 0.1;          // epsilon of the sparkle factor (K + eps) / (lambda + eps)
 };
 
+// The colour filters of a simulated filter wheel ([sim.filters]): what share of the scene's
+// linear sRGB R, G, B each passes. [devices.filter_wheel]'s slot_r, slot_g, slot_b hold them;
+// the wheel's other slots are empty (everything passes). Defaults: dichroic-like filters that
+// leak a little of the neighbouring band.
+struct FilterTruth {
+  std::array<double, 3> red{0.92, 0.05, 0.01};
+  std::array<double, 3> green{0.04, 0.90, 0.06};
+  std::array<double, 3> blue{0.01, 0.06, 0.88};
+};
+
 struct SimConfig {
   RigGeometry nominal;                 // the rig's [geometry] (the guess)
   CameraTruth camera;
@@ -115,6 +125,7 @@ struct SimConfig {
   SphereTruth sphere;
   SceneParams scene;
   RenderParams render;
+  FilterTruth filters;
   std::uint64_t seed = 1;
   // Virtual clock: virtual seconds per real second (0 = never sleep for real).
   double clock_speed = 0.0;
