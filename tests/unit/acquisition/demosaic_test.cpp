@@ -15,6 +15,10 @@
 
 using namespace paintlab;
 using dev::CfaPattern;
+using acq::demosaic;
+using acq::demosaic_merged;
+using acq::cfa_luminance;
+using acq::DemosaicMethod;
 
 namespace {
 
@@ -76,4 +80,97 @@ TEST(Demosaic, WhatIsNoMosaicIsRefused) {
               ::testing::HasSubstr("no colour filter array"));
   EXPECT_THAT(test::error_message<DataError>([] { acq::demosaic_method_from_string("vng", "--demosaic"); }),
               ::testing::AllOf(::testing::HasSubstr("--demosaic"), ::testing::HasSubstr("edge-aware")));
+}
+
+// ---- the merged radiance mosaic (float, with variance and validity) ----
+
+namespace {
+
+// A merged mosaic (Y, var.Y, valid) of a scene: each pixel its filter's colour, variance v.
+ExrImage merged_mosaic_of(int w, int h, CfaPattern pattern, const std::function<double(int, int, int)>& scene,
+                          double var = 4.0) {
+  ExrImage m;
+  m.width = w;
+  m.height = h;
+  ImageF y(w, h, 1), v(w, h, 1, static_cast<float>(var)), ok(w, h, 1, 1.0f);
+  for (int py = 0; py < h; ++py)
+    for (int px = 0; px < w; ++px) y.at(px, py) = static_cast<float>(scene(px, py, dev::cfa_colour(pattern, px, py)));
+  m.add("Y", std::move(y));
+  m.add("var.Y", std::move(v));
+  m.add("valid", std::move(ok));
+  m.attributes["paintlab.content"] = "merged radiance";
+  return m;
+}
+
+}  // namespace
+
+TEST(DemosaicMerged, AUniformColourComesBackExactlyEverywhereForEveryArrangement) {
+  for (CfaPattern p : kPatterns) {
+    SCOPED_TRACE(dev::to_string(p));
+    const ExrImage rgb = demosaic_merged(merged_mosaic_of(12, 10, p, [](int, int, int c) { return 100.0 + 1000.0 * c; }), p);
+    EXPECT_EQ(rgb.names, (std::vector<std::string>{"R", "G", "B", "var.R", "var.G", "var.B", "valid"}));
+    EXPECT_EQ(rgb.attributes.at("paintlab.content"), "merged radiance");
+    for (int y = 0; y < 10; ++y)
+      for (int x = 0; x < 12; ++x) {  // borders included: the weights renormalise
+        EXPECT_FLOAT_EQ(rgb.plane("R").at(x, y), 100.0f);
+        EXPECT_FLOAT_EQ(rgb.plane("G").at(x, y), 1100.0f);
+        EXPECT_FLOAT_EQ(rgb.plane("B").at(x, y), 2100.0f);
+      }
+  }
+}
+
+TEST(DemosaicMerged, ALinearSceneIsReproducedAndAgreesWithOpenCvsBilinear) {
+  const auto scene = [](int x, int y, int c) { return 2000.0 + 150.0 * x + 90.0 * y + 3000.0 * c; };
+  for (CfaPattern p : kPatterns) {
+    SCOPED_TRACE(dev::to_string(p));
+    const ExrImage rgb = demosaic_merged(merged_mosaic_of(16, 12, p, scene), p);
+    const Image<std::uint16_t> cv = demosaic(mosaic_of(16, 12, p, [&](int x, int y, int c) {
+      return static_cast<int>(scene(x, y, c));
+    }), p, DemosaicMethod::Bilinear);
+    const char* names[3] = {"R", "G", "B"};
+    for (int y = 1; y < 11; ++y)
+      for (int x = 1; x < 15; ++x)
+        for (int c = 0; c < 3; ++c) {
+          EXPECT_NEAR(rgb.plane(names[c]).at(x, y), scene(x, y, c), 1e-3) << x << "," << y << " " << names[c];
+          EXPECT_NEAR(rgb.plane(names[c]).at(x, y), cv.at(x, y, c), 1.0) << x << "," << y << " " << names[c];
+        }
+  }
+}
+
+TEST(DemosaicMerged, VarianceFollowsTheWeightsAndAnInvalidSiteInvalidatesItsNeighbours) {
+  const CfaPattern p = CfaPattern::RG;  // R G / G B
+  ExrImage m = merged_mosaic_of(8, 8, p, [](int, int, int) { return 500.0; }, 4.0);
+  m.find("valid")->at(4, 4) = 0.0f;  // an R site (even, even): a hot pixel
+  const ExrImage rgb = demosaic_merged(m, p);
+  // At the R site (2, 2): R its own (var 4), G the mean of 4 (var 4/4), B the mean of 4 diagonals (var 1).
+  EXPECT_FLOAT_EQ(rgb.plane("var.R").at(2, 2), 4.0f);
+  EXPECT_FLOAT_EQ(rgb.plane("var.G").at(2, 2), 1.0f);
+  EXPECT_FLOAT_EQ(rgb.plane("var.B").at(2, 2), 1.0f);
+  // At the G site (3, 2) between two reds: R is their mean (var 2).
+  EXPECT_FLOAT_EQ(rgb.plane("var.R").at(3, 2), 2.0f);
+  // The invalid R site at (4, 4) spoils R wherever it is used: its 3x3 neighbourhood.
+  for (int y = 3; y <= 5; ++y)
+    for (int x = 3; x <= 5; ++x) {
+      EXPECT_EQ(rgb.plane("valid").at(x, y), 0.0f) << x << "," << y;
+      EXPECT_TRUE(std::isinf(rgb.plane("var.R").at(x, y)));
+    }
+  EXPECT_EQ(rgb.plane("valid").at(2, 2), 1.0f);
+  EXPECT_EQ(rgb.plane("valid").at(6, 4), 1.0f);  // the next R site uses only itself for R
+  EXPECT_FALSE(std::isinf(rgb.plane("var.G").at(4, 3)));
+}
+
+TEST(DemosaicMerged, LuminanceOfAMosaicIsAQuarterRedHalfGreenAQuarterBlue) {
+  const auto scene = [](int, int, int c) { return c == 0 ? 400.0 : c == 1 ? 1000.0 : 2000.0; };
+  for (CfaPattern p : kPatterns) {
+    const ExrImage m = merged_mosaic_of(10, 8, p, scene);
+    const ImageF lum = cfa_luminance(m.plane("Y"));
+    for (int y = 1; y < 7; ++y)
+      for (int x = 1; x < 9; ++x) EXPECT_NEAR(lum.at(x, y), (400.0 + 2 * 1000.0 + 2000.0) / 4, 1e-3) << dev::to_string(p);
+  }
+  EXPECT_THROW(cfa_luminance(ImageF(4, 4, 3)), DataError);
+  ExrImage no_var;
+  no_var.width = no_var.height = 4;
+  no_var.add("Y", ImageF(4, 4, 1));
+  EXPECT_THAT(test::error_message<DataError>([&] { demosaic_merged(no_var, CfaPattern::RG); }),
+              ::testing::HasSubstr("planes Y, var.Y and valid"));
 }

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "paintlab/core/image.h"
+#include "paintlab/core/image_io.h"
 #include "paintlab/devices/camera.h"
 
 namespace paintlab::acq {
@@ -27,5 +28,21 @@ DemosaicMethod demosaic_method_from_string(const std::string& s, const std::stri
 // pattern None.
 Image<std::uint16_t> demosaic(const Image<std::uint16_t>& mosaic, dev::CfaPattern pattern,
                               DemosaicMethod method = DemosaicMethod::EdgeAware);
+
+// A merged radiance mosaic as camera RGB: the HDR merge of a Bayer bracket is one plane per
+// pixel (channels Y, var.Y, valid; each pixel the radiance of its filter's colour), this gives
+// R, G, B, var.R, var.G, var.B, valid. Bilinear, written out rather than OpenCV's because the
+// merge's variance and validity have to follow: colour c at a pixel is the weighted mean of the
+// sites of colour c in its 3x3 neighbourhood, weights (2 - |dx|)(2 - |dy|) (so a site keeps its
+// own value, a green between two reds takes their mean, a red among four diagonal blues the
+// mean of the four: cv::demosaicing's bilinear kernel), the variance is sum w^2 var, and the
+// value is valid only where every site it used is. Other planes (attributes) are carried over.
+// DataError for a mosaic without Y, var.Y and valid, or pattern None.
+ExrImage demosaic_merged(const ExrImage& mosaic, dev::CfaPattern pattern);
+
+// Luminance (R + 2G + B) / 4 at every pixel of a linear mosaic without demosaicing: the mosaic
+// filtered by [1 2 1] x [1 2 1] / 16, which sees every 2x2 filter block's colours in those
+// proportions wherever it is centred (weights renormalised at the image's border).
+ImageF cfa_luminance(const ImageF& mosaic);
 
 }  // namespace paintlab::acq
