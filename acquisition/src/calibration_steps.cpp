@@ -205,7 +205,9 @@ calib::FlatField flat_step(const StackImages& in, const calib::ResponseCurve* re
     const double black = dark ? dark->mean_bias_dn : response ? response->window.black_dn : 0.0;
     return capture_flat_stack(rig, black, frames, in.capture_dir);
   });
-  calib::FlatField f = calib::calibrate_flat(stack.frames(), stack.bit_depth, {}, response, dark);
+  calib::FlatOptions options;
+  options.cfa = stack.cfa;  // a Bayer camera's flat: normalised per filter colour
+  calib::FlatField f = calib::calibrate_flat(stack.frames(), stack.bit_depth, options, response, dark);
   f.provenance = calib::Provenance::make("flat", read_files(stack, in), in.devices);
   return f;
 }

@@ -118,17 +118,27 @@ void LightSwitch::off() {
 
 // ---- Exposure stacks ----
 
+std::optional<std::array<int, 4>> cfa_sites(dev::PixelFormat format) {
+  const dev::CfaPattern p = dev::cfa_pattern(format);
+  if (p == dev::CfaPattern::None) return std::nullopt;
+  return std::array<int, 4>{dev::cfa_colour(p, 0, 0), dev::cfa_colour(p, 1, 0), dev::cfa_colour(p, 0, 1),
+                            dev::cfa_colour(p, 1, 1)};
+}
+
 calib::ExposureStack capture_stack(dev::Camera& cam, dev::Light& light, double gain_db,
                                    const std::vector<double>& exposures_s, int repeats, bool light_on,
                                    const fs::path& save_dir) {
   if (exposures_s.empty()) throw UsageError("capture_stack: no exposure given");
   if (repeats < 1) throw UsageError(fmt::format("capture_stack: repeats = {} (>= 1)", repeats));
-  const int bits = dev::bit_depth(value_or_throw(cam.pixel_format()));
+  const dev::PixelFormat format = value_or_throw(cam.pixel_format());
+  const int bits = dev::bit_depth(format);
   value_or_throw(cam.set_gain_db(gain_db));
   LightSwitch led(light, light_on);
   calib::ExposureStack out;
+  out.cfa = cfa_sites(format);
   fs::create_directories(save_dir);
-  std::string listing = "# name exposure_s (applied, read back from the camera)\n";
+  std::string listing = "# name exposure_s (applied, read back from the camera); pixel format " +
+                        std::string(dev::to_string(format)) + "\n";
   int index = 0;
   for (double t : exposures_s)
     for (int r = 0; r < repeats; ++r) {

@@ -96,6 +96,7 @@ std::string FlatField::describe() const {
       "flat: {} frames, mean signal {:.0f} DN; darkest/brightest corner {:.3f}, darkest corner/centre {:.3f}, pixel "
       "non-uniformity {}",
       frame_count, mean_signal_dn, corner_ratio, centre_to_corner, percent(prnu_rel));
+  if (cfa) s += " (colour-filter array: each filter colour normalised on its own)";
   if (noise.known()) s += fmt::format("\n  conversion gain {:.4g} DN/e ({})", noise.gain_dn_per_e, noise.source);
   return s;
 }

@@ -88,23 +88,33 @@ FlatField calibrate_flat(std::span<const StackFrame> frames, int bit_depth, cons
         out.mean_signal_dn, 100.0 * options.min_signal_frac, full_scale));
 
   auto trusted = [&](std::size_t p) { return !(dark && dark->hot.data()[p]); };
+  if (options.cfa && C != 1)
+    throw DataError(fmt::format("flat: colour-filter-array frames have one plane, these have {}", C));
+  out.cfa = options.cfa;
+  // The classes normalised on their own: the channels, or a mosaic's filter colours.
+  const int classes = options.cfa ? 3 : C;
+  auto class_of = [&](std::size_t s) {
+    if (!options.cfa) return static_cast<int>(s % static_cast<std::size_t>(C));
+    const std::size_t x = s % static_cast<std::size_t>(W), y = s / static_cast<std::size_t>(W);
+    return (*options.cfa)[2 * (y & 1) + (x & 1)];
+  };
+  std::vector<double> acc(static_cast<std::size_t>(classes), 0.0);
+  std::vector<long long> n(static_cast<std::size_t>(classes), 0);
+  for (std::size_t s = 0; s < S; ++s) {
+    if (!trusted(s / static_cast<std::size_t>(C)) || count[s] == 0) continue;
+    acc[static_cast<std::size_t>(class_of(s))] += sum[s] / count[s];
+    ++n[static_cast<std::size_t>(class_of(s))];
+  }
+  for (int k = 0; k < classes; ++k)
+    if (n[static_cast<std::size_t>(k)] == 0 || !(acc[static_cast<std::size_t>(k)] > 0.0))
+      throw CalibrationError(fmt::format("flat: no usable pixel in {} {}", options.cfa ? "filter colour" : "channel", k));
   out.gain = ImageF(W, H, C);
-  for (int c = 0; c < C; ++c) {
-    double acc = 0.0;
-    long long n = 0;
-    for (std::size_t p = 0; p < P; ++p) {
-      const std::size_t s = p * C + c;
-      if (!trusted(p) || count[s] == 0) continue;
-      acc += sum[s] / count[s];
-      ++n;
-    }
-    if (n == 0 || !(acc > 0.0)) throw CalibrationError("flat: no usable pixel in channel " + std::to_string(c));
-    const double mean = acc / static_cast<double>(n);
-    for (std::size_t p = 0; p < P; ++p) {
-      const std::size_t s = p * C + c;
-      out.gain.data()[s] =
-          (!trusted(p) || count[s] == 0) ? 1.0f : static_cast<float>(sum[s] / count[s] / mean);
-    }
+  for (std::size_t s = 0; s < S; ++s) {
+    const auto k = static_cast<std::size_t>(class_of(s));
+    const double mean = acc[k] / static_cast<double>(n[k]);
+    out.gain.data()[s] = (!trusted(s / static_cast<std::size_t>(C)) || count[s] == 0)
+                             ? 1.0f
+                             : static_cast<float>(sum[s] / count[s] / mean);
   }
 
   // Corner and centre blocks (1/8 of each side), averaged over the channels.
@@ -129,8 +139,29 @@ FlatField calibrate_flat(std::span<const StackFrame> frames, int bit_depth, cons
   const double centre = block_mean((W - bw) / 2, (H - bh) / 2);
   out.centre_to_corner = centre > 0.0 ? lo / centre : 0.0;
 
-  // Pixel non-uniformity: gain relative to its 7x7 local mean.
-  {
+  // Pixel non-uniformity: gain relative to its 7x7 local mean (of a mosaic: among the sites of
+  // one 2x2 phase, 7x7 of them, so that one colour is never compared with another).
+  if (options.cfa) {
+    std::vector<float> rel;
+    rel.reserve(S);
+    for (int phase = 0; phase < 4; ++phase) {
+      const int x0 = phase & 1, y0 = phase >> 1;
+      const int w = (W - x0 + 1) / 2, h = (H - y0 + 1) / 2;
+      cv::Mat g(h, w, CV_32F), ok(h, w, CV_8U);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          g.at<float>(y, x) = out.gain.at(x0 + 2 * x, y0 + 2 * y);
+          ok.at<std::uint8_t>(y, x) = trusted(static_cast<std::size_t>(y0 + 2 * y) * W + x0 + 2 * x) ? 1 : 0;
+        }
+      cv::Mat local;
+      cv::blur(g, local, cv::Size(7, 7), cv::Point(-1, -1), cv::BORDER_REFLECT);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          if (ok.at<std::uint8_t>(y, x) && local.at<float>(y, x) > 0.0f)
+            rel.push_back(g.at<float>(y, x) / local.at<float>(y, x) - 1.0f);
+    }
+    out.prnu_rel = rel.empty() ? 0.0 : kMadToSigma * upper_mad_inplace(rel, 0.0);
+  } else {
     std::vector<float> rel;
     rel.reserve(S);
     for (int c = 0; c < C; ++c) {
@@ -196,6 +227,7 @@ Json FlatField::to_json(const std::string& map_file, const std::string& map_sha2
           {"mean_signal_dn", mean_signal_dn},
           {"saturated_fraction", saturated_fraction},
           {"noise", noise.to_json()},
+          {"cfa", cfa ? Json(*cfa) : Json()},
           {"maps", {{"file", map_file}, {"sha256", map_sha256}}}};
 }
 
@@ -215,6 +247,12 @@ FlatField FlatField::load(const fs::path& json_path) {
   f.mean_signal_dn = rec.get<double>("mean_signal_dn");
   f.saturated_fraction = rec.get<double>("saturated_fraction");
   if (rec.json.contains("noise")) f.noise = NoiseModel::from_json(rec.json.at("noise"), rec.where);
+  if (rec.json.contains("cfa") && !rec.json.at("cfa").is_null()) {
+    const std::vector<int> cfa = json_get<std::vector<int>>(rec.json, "cfa", rec.where);
+    if (cfa.size() != 4 || std::any_of(cfa.begin(), cfa.end(), [](int c) { return c < 0 || c > 2; }))
+      throw DataError(rec.where + ": key 'cfa' must hold the colours (0 R, 1 G, 2 B) of the 2x2 filter block");
+    f.cfa = std::array<int, 4>{cfa[0], cfa[1], cfa[2], cfa[3]};
+  }
   f.gain = rec.map("flat");
   for (std::size_t p = 0; p < f.gain.size(); ++p) {
     const float v = f.gain.data()[p];

@@ -168,6 +168,21 @@ TEST(CaptureStack, SavesEveryFrameWithTheAppliedExposuresAndSwitchesTheLedOff) {
   for (std::size_t k = 0; k < s.exposures_s.size(); ++k)
     EXPECT_NEAR(again.exposures_s[k], s.exposures_s[k], 1e-9 * s.exposures_s[k]);  // 9 digits in the listing
   EXPECT_EQ(again.images[2].values()[0], s.images[2].values()[0]);
+  EXPECT_FALSE(s.cfa);  // a monochrome camera
+  EXPECT_THAT(listing, HasSubstr("pixel format Mono16"));
+}
+
+TEST(CaptureStack, ABayerCamerasStackKnowsItsFilterColours) {
+  test::TempDir tmp;
+  Rig rig;
+  rig.scene(1e5);
+  rig.camera.format = dev::PixelFormat::BayerGR16;  // G R / B G
+  const calib::ExposureStack s = acq::capture_stack(rig.camera, rig.light, 0.0, {0.001, 0.01}, 1, false, tmp / "stack");
+  ASSERT_TRUE(s.cfa);
+  EXPECT_EQ(*s.cfa, (std::array<int, 4>{1, 0, 2, 1}));
+  EXPECT_THAT(read_file(tmp / "stack" / "exposures.txt"), HasSubstr("pixel format BayerGR16"));
+  EXPECT_EQ(acq::cfa_sites(dev::PixelFormat::BayerBG8), (std::array<int, 4>{2, 1, 1, 0}));
+  EXPECT_FALSE(acq::cfa_sites(dev::PixelFormat::RGB8));
 }
 
 TEST(CaptureStack, ACameraThatFailsMidwayLeavesTheLedOffAndNoListing) {

@@ -5,6 +5,7 @@
 // rig's response/dark/flat, and the captures saved with their exposures. Everything here
 // sees only the device interfaces (devices/*.h) and a Clock; app/ chooses the drivers and
 // the stage (the simulator or a technician at the console).
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -117,6 +118,10 @@ class LightSwitch {
 // where it is) at `gain_db`, and saves them as PNG, with exposures.txt, in `save_dir`, which
 // then works as `--images save_dir`. The stack holds the exposures the camera applied. The
 // LED is off afterwards on every path. DeviceError when a device fails.
+// The camera channel (0 R, 1 G, 2 B) of each pixel of a Bayer format's top-left 2x2 block,
+// row by row (calibration's form of dev::cfa_pattern); unset for Mono and RGB formats.
+std::optional<std::array<int, 4>> cfa_sites(dev::PixelFormat format);
+
 calib::ExposureStack capture_stack(dev::Camera& camera, dev::Light& light, double gain_db,
                                    const std::vector<double>& exposures_s, int repeats, bool light_on,
                                    const std::filesystem::path& save_dir);

@@ -2,7 +2,9 @@
 // An exposure stack: raw camera images of one static scene taken with different exposure
 // times. The input of response recovery (response.h) and of HDR merging (acquisition).
 #include <cstdint>
+#include <array>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -29,6 +31,9 @@ struct ExposureStack {
   std::vector<double> exposures_s;
   std::vector<std::filesystem::path> files;
   int bit_depth = 8;  // significant bits of every image
+  // A colour-filter-array (Bayer) camera's frames: the camera channel (0 R, 1 G, 2 B) of each
+  // pixel of the top-left 2x2 block, row by row. Unset: monochrome or three-channel frames.
+  std::optional<std::array<int, 4>> cfa{};
 
   std::vector<StackFrame> frames() const;
 };

@@ -3,7 +3,9 @@
 // non-uniformity), measured on images of a uniform target (diffuse white tile or
 // integrating sphere). A merged radiance is divided by it. Written as calib/flat.json with
 // the gain map in flat.exr beside it.
+#include <array>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -26,6 +28,10 @@ struct FlatField {
   double mean_signal_dn = 0.0;   // mean dark-subtracted value of the flat frames
   double saturated_fraction = 0.0;  // values at or above saturation in the flat frames
   NoiseModel noise;              // conversion gain by photon transfer (>= 2 frames at one exposure)
+  // Set for a colour-filter-array camera (ExposureStack::cfa): the gain is normalised per
+  // colour, so the flat holds vignetting and pixel non-uniformity but not the camera's or the
+  // diffuser's colour (white balance is the radiometric scale's business, per channel).
+  std::optional<std::array<int, 4>> cfa{};
   int frame_count = 0;
   std::vector<double> exposures_s;
   Provenance provenance;
@@ -46,6 +52,9 @@ struct FlatField {
 struct FlatOptions {
   double max_saturated_fraction = 1e-4;  // more saturated values than this: CalibrationError
   double min_signal_frac = 0.05;         // mean signal below this share of full scale: CalibrationError
+  // One-plane mosaic frames of a colour-filter array (ExposureStack::cfa): each colour's sites
+  // normalised to mean 1 on their own, the non-uniformity measured among sites of one colour.
+  std::optional<std::array<int, 4>> cfa{};
 
   void check() const;  // UsageError naming the first violated rule
 };
