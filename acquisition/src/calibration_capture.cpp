@@ -1,4 +1,5 @@
 #include "paintlab/acquisition/calibration_capture.h"
+#include "paintlab/acquisition/demosaic.h"
 
 #include <fmt/format.h>
 
@@ -51,6 +52,7 @@ void fit_live_sphere(LiveCheck& out, const std::vector<Shot>& shots, const calib
   for (const auto& s : shots) images.push_back({s.name, s.rate});
   calib::SphereOptions o;
   o.radius_m = config.geometry.sphere_radius_m;
+  o.image_blur_var_px2 = shots.empty() ? 0.0 : shots.front().blur_var_px2;
   try {
     out.evidence.sphere = calib::fit_sphere(images, cal.camera(), o);
   } catch (const CalibrationError& e) {
@@ -160,6 +162,16 @@ BoardViews capture_board_views(CalibrationRig& rig, const calib::BoardSpec& boar
     r.fill = 0.6;
     r.quantile = 0.99;
     Shot s = rig.shot(r);
+    // A colour camera's mosaic would show the corner finder a 2x2 pattern of gains: the shot's
+    // grey-balanced luminance (linear, symmetric: it moves no edge) as a 16-bit image instead.
+    if (s.cfa != dev::CfaPattern::None) {
+      const float peak = *std::max_element(s.rate.values().begin(), s.rate.values().end());
+      const double to_dn = peak > 0 ? 60000.0 / peak : 1.0;
+      for (std::size_t i = 0; i < s.raw.size(); ++i)
+        s.raw.values()[i] =
+            static_cast<std::uint16_t>(std::lround(std::clamp(s.rate.values()[i] * to_dn, 0.0, 65535.0)));
+      s.bit_depth = 16;
+    }
     out.images.push_back({s.name, std::move(s.raw), s.bit_depth});
     out.files.push_back(s.file);
   }

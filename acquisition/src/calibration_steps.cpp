@@ -115,6 +115,7 @@ calib::SphereFit sphere_step(const StepImages& in, const calib::RigCalibration& 
   for (const Shot& s : shots) images.push_back({s.name, s.rate});
   calib::SphereOptions o;
   o.radius_m = rig.geometry.sphere_radius_m;
+  o.image_blur_var_px2 = shots.empty() ? 0.0 : shots.front().blur_var_px2;
   calib::SphereFit fit = calib::fit_sphere(images, cal.camera(), o);
   fit.provenance = calib::Provenance::make("sphere", files_of(shots), in.devices);
   return fit;

@@ -1,4 +1,5 @@
 #include "paintlab/acquisition/capture.h"
+#include "paintlab/acquisition/demosaic.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -296,14 +297,38 @@ Shot ShotCapture::capture(const ShotRequest& q, Linearizer& linearizer) {
   }
   Shot shot;
   shot.name = q.name;
-  shot.raw = to_mono(frame.pixels);
+  shot.cfa = dev::cfa_pattern(frame.meta.format);
+  shot.raw = shot.cfa == dev::CfaPattern::None ? to_mono(frame.pixels) : std::move(frame.pixels);
   shot.bit_depth = bit_depth_;
   shot.exposure_s = frame.meta.exposure_s;
   shot.per_second = true;
   shot.table_angle_deg = q.angle_deg;
   Linearizer::Linear lin = linearizer.linearise(shot.raw, shot.bit_depth, shot.exposure_s);
-  shot.rate = std::move(lin.rate);
-  shot.saturated = std::move(lin.saturated);
+  if (shot.cfa == dev::CfaPattern::None) {
+    shot.rate = std::move(lin.rate);
+    shot.saturated = std::move(lin.saturated);
+  } else {  // a mosaic: the geometric steps see its (grey-balanced) luminance; a clipped site spoils its 3x3 neighbours
+    shot.rgb = demosaic_bilinear(lin.rate, shot.cfa);
+    // The camera's colour gains from this shot when it shows enough grey (boards, references),
+    // else the last ones measured (a highlight on a dark glossy sphere shows too little).
+    if (const auto g = grey_gains(lin.rate, shot.cfa)) cfa_gains_ = *g;
+    if (!cfa_gains_)
+      spdlog::warn("{}/{}: the colour gains are not known yet (too little grey in view): its luminance keeps the "
+                   "filters' 2x2 pattern",
+                   q.step, q.name);
+    shot.rate = balanced_luminance(lin.rate, shot.cfa, cfa_gains_.value_or(std::array<double, 3>{1.0, 1.0, 1.0}));
+    shot.blur_var_px2 = 0.5;  // [1 2 1] / 4 along each axis
+    shot.saturated = Image<std::uint8_t>(lin.saturated.width(), lin.saturated.height(), 1, 0);
+    for (int y = 0; y < lin.saturated.height(); ++y)
+      for (int x = 0; x < lin.saturated.width(); ++x)
+        if (lin.saturated.at(x, y))
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int sx = x + dx, sy = y + dy;
+              if (sx >= 0 && sy >= 0 && sx < lin.saturated.width() && sy < lin.saturated.height())
+                shot.saturated.at(sx, sy) = 1;
+            }
+  }
   const fs::path dir = dir_ / q.step;
   fs::create_directories(dir);
   shot.file = dir / (q.name + ".png");

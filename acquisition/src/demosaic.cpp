@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -99,6 +101,23 @@ ExrImage demosaic_merged(const ExrImage& mosaic, dev::CfaPattern pattern) {
   return out;
 }
 
+ImageF demosaic_bilinear(const ImageF& mosaic, dev::CfaPattern pattern) {
+  if (mosaic.channels() != 1) throw DataError(fmt::format("demosaic: a mosaic has one plane, not {}", mosaic.channels()));
+  ExrImage m;
+  m.add("Y", mosaic);
+  m.add("var.Y", ImageF(mosaic.width(), mosaic.height(), 1, 0.0f));
+  m.add("valid", ImageF(mosaic.width(), mosaic.height(), 1, 1.0f));
+  const ExrImage rgb = demosaic_merged(m, pattern);
+  ImageF out(mosaic.width(), mosaic.height(), 3);
+  const char* names[3] = {"R", "G", "B"};
+  for (int c = 0; c < 3; ++c) {
+    const ImageF& plane = rgb.plane(names[c]);
+    for (int y = 0; y < out.height(); ++y)
+      for (int x = 0; x < out.width(); ++x) out.at(x, y, c) = plane.at(x, y);
+  }
+  return out;
+}
+
 ImageF cfa_luminance(const ImageF& mosaic) {
   if (mosaic.channels() != 1) throw DataError(fmt::format("cfa luminance: a mosaic has one plane, not {}", mosaic.channels()));
   const int w = mosaic.width(), h = mosaic.height();
@@ -117,6 +136,68 @@ ImageF cfa_luminance(const ImageF& mosaic) {
       out.at(x, y) = static_cast<float>(sum / sum_w);
     }
   return out;
+}
+
+std::optional<std::array<double, 3>> grey_gains(const ImageF& mosaic, dev::CfaPattern pattern, int min_blocks) {
+  if (mosaic.channels() != 1) throw DataError(fmt::format("cfa luminance: a mosaic has one plane, not {}", mosaic.channels()));
+  if (pattern == dev::CfaPattern::None) throw DataError("cfa luminance: the frame has no colour filter array (pattern none)");
+  // The scale of the image: its 99th percentile (a highlight, a hot or clipped pixel is not).
+  float peak = 0.0f;
+  if (!mosaic.empty()) {
+    std::vector<float> v(mosaic.values().begin(), mosaic.values().end());
+    const auto q = v.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(v.size() - 1));
+    std::nth_element(v.begin(), q, v.end());
+    peak = *q;
+  }
+  // Per 2x2 block of a flat part of the image (every site between 20 % and 100 % of the
+  // image's scale, its two greens within 5 % of each other: no edge, no highlight's flank
+  // runs through it) the red and blue sites against the greens' mean; the medians are the gains.
+  std::vector<double> ratio[3];
+  for (int y = 0; y + 1 < mosaic.height(); y += 2)
+    for (int x = 0; x + 1 < mosaic.width(); x += 2) {
+      double site[3] = {0, 0, 0}, green[2] = {0, 0};
+      int greens = 0;
+      bool usable = true;
+      for (int k = 0; k < 4 && usable; ++k) {
+        const float v = mosaic.at(x + (k & 1), y + (k >> 1));
+        usable = v >= 0.2f * peak && v <= peak;
+        const int c = dev::cfa_colour(pattern, x + (k & 1), y + (k >> 1));
+        if (c == 1) green[greens++ & 1] = v;
+        else site[c] = v;
+      }
+      if (!usable || std::abs(green[0] - green[1]) > 0.025 * (green[0] + green[1])) continue;
+      const double g_mean = 0.5 * (green[0] + green[1]);
+      ratio[0].push_back(site[0] / g_mean);
+      ratio[2].push_back(site[2] / g_mean);
+    }
+  if (static_cast<int>(ratio[0].size()) < std::max(min_blocks, 1)) return std::nullopt;
+  // Grey seen well gives one ratio everywhere; blocks of noise (a dark image) scatter: their
+  // median would be a number without meaning. The ratios' spread (MAD) must stay within 3 %.
+  std::array<double, 3> g{1.0, 1.0, 1.0};
+  for (int c : {0, 2}) {
+    auto& r = ratio[static_cast<std::size_t>(c)];
+    const auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
+    std::nth_element(r.begin(), mid, r.end());
+    const double median = *mid;
+    if (!(median > 0)) return std::nullopt;
+    std::vector<double> dev;
+    dev.reserve(r.size());
+    for (double v : r) dev.push_back(std::abs(v - median));
+    const auto dmid = dev.begin() + static_cast<std::ptrdiff_t>(dev.size() / 2);
+    std::nth_element(dev.begin(), dmid, dev.end());
+    if (*dmid > 0.03 * median) return std::nullopt;
+    g[static_cast<std::size_t>(c)] = median;
+  }
+  return g;
+}
+
+ImageF balanced_luminance(const ImageF& mosaic, dev::CfaPattern pattern, const std::array<double, 3>& g) {
+  if (mosaic.channels() != 1) throw DataError(fmt::format("cfa luminance: a mosaic has one plane, not {}", mosaic.channels()));
+  ImageF balanced(mosaic.width(), mosaic.height(), 1);
+  for (int y = 0; y < mosaic.height(); ++y)
+    for (int x = 0; x < mosaic.width(); ++x)
+      balanced.at(x, y) = static_cast<float>(mosaic.at(x, y) / g[static_cast<std::size_t>(dev::cfa_colour(pattern, x, y))]);
+  return cfa_luminance(balanced);
 }
 
 }  // namespace paintlab::acq

@@ -53,6 +53,11 @@ MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated, bool n
 CameraPreparation prepare_camera(dev::Camera& camera, const RigConfig& rig) {
   CameraPreparation c;
   c.format = value_or_throw(camera.pixel_format());
+  if (dev::cfa_pattern(c.format) != dev::CfaPattern::None)
+    throw DataError(fmt::format(
+        "the camera records {} (a colour mosaic): `paintlab measure` merges monochrome frames only until the colour "
+        "merge is built (issue 14), and would record the mosaic as grey; measure with a Mono format",
+        dev::to_string(c.format)));
   c.gain_db = value_or_throw(camera.set_gain_db(rig.plan.gain_db));
   c.range = value_or_throw(camera.exposure_range());
   for (double t : rig.plan.exposures_s) {

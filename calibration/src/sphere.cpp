@@ -24,6 +24,8 @@ void SphereOptions::check() const {
   if (!(min_snr > 0.0)) throw UsageError("sphere: min_snr must be > 0");
   if (!(min_step_frac >= 0.0 && min_step_frac <= 1.0)) throw UsageError("sphere: min_step_frac must be in [0, 1]");
   if (!(outlier_sigmas >= 2.0)) throw UsageError("sphere: outlier_sigmas must be >= 2");
+  if (!(image_blur_var_px2 >= 0.0 && image_blur_var_px2 <= 25.0))
+    throw OptionError("SphereOptions::image_blur_var_px2", fmt::format("{}", image_blur_var_px2), "[0, 25] px^2");
 }
 
 // ---- the limb profile H(x) = int_0^inf sqrt(u) phi(x - u) du ----
@@ -644,6 +646,10 @@ SphereFit fit_sphere(const std::vector<SphereImage>& images, const CameraModel& 
       if (std::abs(e.step) >= 0.5 * max_step) psf_strong.push_back(e.psf_sigma_px);
     }
     fit.psf_sigma_px = upper_median(psf_strong.size() >= 8 ? psf_strong : psf_all);
+  }
+  if (options.image_blur_var_px2 > 0) {  // the camera's blur, without the processing's
+    fit.edge_sigma_px = std::sqrt(std::max(fit.edge_sigma_px * fit.edge_sigma_px - options.image_blur_var_px2, 0.0));
+    fit.psf_sigma_px = std::sqrt(std::max(fit.psf_sigma_px * fit.psf_sigma_px - options.image_blur_var_px2, 0.0));
   }
   fit.edge_width_px = 2.5631 * fit.edge_sigma_px;
   // Coverage: fraction of 5-degree bins around the outline with a used point.

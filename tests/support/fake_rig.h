@@ -161,6 +161,7 @@ class FakeCamera final : public dev::Camera {
           f.pixels.at(x, y) =
               static_cast<std::uint16_t>(std::clamp(std::round(image(x, y, exposure_, light_.state)), 0.0, full));
     f.meta.exposure_s = exposure_;
+    f.meta.format = format;
     f.meta.frame_id = 65400 + captures;
     f.meta.timestamp_ns = static_cast<std::uint64_t>(clock_.now_s() * 1e9);
     return f;

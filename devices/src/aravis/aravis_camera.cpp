@@ -94,7 +94,12 @@ AravisCameraConfig aravis_camera_config(const ConfigTable& t, bool simulated) {
     c.id = t.string("id");
     if (c.id.empty()) t.fail("id", "must name the camera (device id or IP address)");
   }
-  c.pixel_format = pixel_format_from_string(t.choice("pixel_format", "Mono16", {"Mono8", "Mono12", "Mono16"}));
+  // RGB8 (three values a pixel) is read by the driver but not served by the simulator nor
+  // merged by the measurement: not offered here.
+  c.pixel_format = pixel_format_from_string(
+      t.choice("pixel_format", "Mono16",
+               {"Mono8", "Mono12", "Mono16", "BayerRG8", "BayerGR8", "BayerGB8", "BayerBG8", "BayerRG12", "BayerGR12",
+                "BayerGB12", "BayerBG12", "BayerRG16", "BayerGR16", "BayerGB16", "BayerBG16"}));
   c.width_px = static_cast<int>(t.integer("width_px", 0, Bounds::closed(0, 65535)));
   c.height_px = static_cast<int>(t.integer("height_px", 0, Bounds::closed(0, 65535)));
   if (t.has("black_level")) c.black_level = t.number("black_level", Bounds::closed(-1e6, 1e6));

@@ -235,6 +235,47 @@ TEST(ShotCapture, MovesLightsExposesSavesAndRemembersTheStepsExposure) {
   EXPECT_EQ(lin.mergers_built(), 1);  // one geometry, one calibration: one merger
 }
 
+TEST(ShotCapture, ABayerCamerasShotIsItsBalancedLuminanceWithTheCameraRgbBeside) {
+  test::TempDir tmp;
+  Rig rig;
+  rig.camera.format = dev::PixelFormat::BayerRG16;  // R G / G B
+  rig.camera.width = 40;  // enough flat 2x2 blocks (>= 200) to measure the colour gains on
+  rig.camera.height = 32;
+  const double rate[3] = {3e5, 6e5, 1.5e5};  // DN/s of the red, green and blue sites
+  rig.camera.image = [&](int x, int y, double t, bool on) {
+    if (x == 6 && y == 4) return kFull;  // one clipped green site
+    return kBlack + (on ? rate[dev::cfa_colour(dev::CfaPattern::RG, x, y)] * t : 0.0);
+  };
+  acq::ShotCapture shots(rig.devices(), tmp / "captures", 0.0);
+  acq::Linearizer lin;
+  const acq::Shot s = shots.capture({"sphere", "sphere_angle0", 0.0, true, 0.6, 0.5, 0.002}, lin);
+  EXPECT_EQ(s.cfa, dev::CfaPattern::RG);
+  ASSERT_EQ(s.raw.channels(), 1);  // the mosaic is what is kept (and saved)
+  ASSERT_EQ(s.rgb.channels(), 3);
+  // Linear DN/s (no calibration: the raw value above nothing, so the black level per second too).
+  const double black = kBlack / s.exposure_s;
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(s.rgb.at(2, 2, c), rate[c] + black, 1e-3 * rate[c]) << c;
+  // The luminance of the grey-balanced mosaic: every site scaled to green's gain (the gains
+  // measured on the image, black level included).
+  EXPECT_NEAR(s.rate.at(2, 2), rate[1] + black, 2e-3 * rate[1]);
+  // A shot with too little grey in view (all dark but the clipped site) keeps the gains
+  // measured before.
+  rig.camera.image = [&](int x, int y, double t, bool on) {
+    if (x == 20 && y == 16) return kBlack + (on ? rate[0] * t : 0.0);
+    return kBlack + (x * 7 + y * 13) % 11;  // black with a little pattern noise
+  };
+  const acq::Shot dark = shots.capture({"light", "light_angle0", 0.0, true, 0.6, 0.5, 0.002}, lin);
+  // The spot's red site divided by red's gain from the first shot ((3e5 + b) / (6e5 + b), b the
+  // black level per second, which nothing subtracted), a quarter of it at its own pixel.
+  const double gain_r = (rate[0] + black) / (rate[1] + black);
+  EXPECT_NEAR(dark.rate.at(20, 16) - dark.rate.at(24, 16), 0.25 * rate[0] / gain_r, 0.02 * rate[0] / gain_r);
+  // The clipped site spoils the luminance and colour of its 3x3 neighbourhood.
+  for (int y = 3; y <= 5; ++y)
+    for (int x = 5; x <= 7; ++x) EXPECT_EQ(s.saturated.at(x, y), 1) << x << "," << y;
+  EXPECT_EQ(s.saturated.at(2, 2), 0);
+  EXPECT_EQ(read_raw_image(s.file).pixels.at(6, 4), static_cast<std::uint16_t>(kFull));
+}
+
 TEST(ShotCapture, FailuresLeaveTheLedOffAndAnAngleWithoutATableIsRefused) {
   test::TempDir tmp;
   Rig rig;

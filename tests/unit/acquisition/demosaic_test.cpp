@@ -174,3 +174,38 @@ TEST(DemosaicMerged, LuminanceOfAMosaicIsAQuarterRedHalfGreenAQuarterBlue) {
   EXPECT_THAT(test::error_message<DataError>([&] { demosaic_merged(no_var, CfaPattern::RG); }),
               ::testing::HasSubstr("planes Y, var.Y and valid"));
 }
+
+TEST(DemosaicMerged, AGreyTargetsMosaicIsBalancedSoASmallSpotKeepsItsPlace) {
+  // A grey scene through filters of gains 0.6 / 1.0 / 0.8 (RG): a bright spot one pixel wide
+  // at a red site. Unbalanced, the luminance is pulled towards the green sites around it.
+  const CfaPattern p = CfaPattern::RG;
+  const double gain[3] = {0.6, 1.0, 0.8};
+  ImageF mosaic(16, 16, 1);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) {
+      const double scene = 100.0 + (x == 8 && y == 8 ? 5000.0 : 0.0) + 3.0 * x;
+      mosaic.at(x, y) = static_cast<float>(gain[dev::cfa_colour(p, x, y)] * scene);
+    }
+  const auto gains = acq::grey_gains(mosaic, p, 20);
+  ASSERT_TRUE(gains);
+  const std::array<double, 3> g = *gains;
+  const ImageF lum = acq::balanced_luminance(mosaic, p, g);
+  EXPECT_FALSE(acq::grey_gains(mosaic, p, 1000));  // too few flat blocks for that many
+  // (each colour's sites sample the ramp at other places: a per cent or two off)
+  EXPECT_NEAR(g[0], 0.6, 0.02);
+  EXPECT_NEAR(g[1], 1.0, 1e-12);
+  EXPECT_NEAR(g[2], 0.8, 0.02);
+  // Away from the spot, a grey ramp stays a ramp (no 2x2 pattern left).
+  for (int x = 2; x < 6; ++x) EXPECT_NEAR(lum.at(x + 1, 3) - lum.at(x, 3), 3.0, 0.1) << x;
+  // The spot's centroid stays on its pixel, in x and in y.
+  double sx = 0, sy = 0, s = 0;
+  for (int y = 6; y <= 10; ++y)
+    for (int x = 6; x <= 10; ++x) {
+      const double v = lum.at(x, y) - (100.0 + 3.0 * x);
+      sx += v * x;
+      sy += v * y;
+      s += v;
+    }
+  EXPECT_NEAR(sx / s, 8.0, 0.02);
+  EXPECT_NEAR(sy / s, 8.0, 0.02);
+}

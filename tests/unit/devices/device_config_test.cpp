@@ -93,12 +93,15 @@ kind = "sim"
                ConfigError);
   EXPECT_THROW(dev::validate_device_sections(parse("\n" + test::kSimDevicesToml + "id = \"192.168.1.2\"\n")),
                ConfigError);  // a simulated camera has no address
-  // The driver reads colour formats, but the rig measures with a monochrome camera until the
-  // merge carries colour: rig.toml names the formats it takes.
+  // The Bayer mosaics are taken (calibration handles them; the measurement refuses them until
+  // the colour merge is built); RGB8, which neither the simulator serves nor the merge takes, is not.
+  EXPECT_EQ(dev::camera_config(parse("\n" + test::kSimDevicesToml + "pixel_format = \"BayerGB12\"\n").camera, {})
+                .pixel_format,
+            dev::PixelFormat::BayerGB12);
   EXPECT_THAT(test::error_message<ConfigError>([] {
-                dev::validate_device_sections(parse("\n" + test::kSimDevicesToml + "pixel_format = \"BayerRG12\"\n"));
+                dev::validate_device_sections(parse("\n" + test::kSimDevicesToml + "pixel_format = \"RGB8\"\n"));
               }),
-              ::testing::AllOf(::testing::HasSubstr("devices.camera.pixel_format"), ::testing::HasSubstr("Mono16")));
+              ::testing::AllOf(::testing::HasSubstr("devices.camera.pixel_format"), ::testing::HasSubstr("BayerRG16")));
   RigConfig ok = parse(R"(
 [devices.turntable]
 kind = "sim"

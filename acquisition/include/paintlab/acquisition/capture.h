@@ -163,8 +163,13 @@ struct Shot {
   std::filesystem::path file;  // the capture or input file
   Image<std::uint16_t> raw;    // empty for EXR inputs
   int bit_depth = 16;
-  ImageF rate;                    // linearised DN per second
-  Image<std::uint8_t> saturated;  // 1 = clipped
+  ImageF rate;                    // linearised DN per second (a colour camera: its luminance, R/4 + G/2 + B/4)
+  Image<std::uint8_t> saturated;  // 1 = clipped (a colour camera: any site the pixel's colours use)
+  // A colour-filter-array camera's shot: the filter arrangement of `raw` (a mosaic) and the
+  // linear camera RGB per second at every pixel (bilinear demosaicing); empty otherwise.
+  dev::CfaPattern cfa = dev::CfaPattern::None;
+  ImageF rgb;
+  double blur_var_px2 = 0.0;  // blur `rate` has beyond the camera's (the luminance filter's: 0.5 px^2)
   double exposure_s = 0.0;
   bool per_second = false;  // rate is per second (captured, EXR, or exposure in the name)
   std::optional<double> table_angle_deg;
@@ -221,6 +226,8 @@ class ShotCapture {
   int bit_depth_ = 0;
   std::map<std::string, double> last_exposure_s_;  // per step and LED state
   std::vector<std::filesystem::path> captured_;
+  // A colour camera's gains (acq::grey_gains), from the last shot that showed enough grey.
+  std::optional<std::array<double, 3>> cfa_gains_;
 };
 
 }  // namespace paintlab::acq

@@ -6,7 +6,9 @@
 // GenICam after the block at the top-left corner: GenICam BayerRG (R G / G B) is OpenCV's
 // BayerBG, GR is GB, GB is GR, BG is RG (opencv/opencv issues 4857, 19629). demosaic() takes
 // GenICam's name (dev::CfaPattern, what the camera reports) and translates.
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "paintlab/core/image.h"
@@ -40,9 +42,26 @@ Image<std::uint16_t> demosaic(const Image<std::uint16_t>& mosaic, dev::CfaPatter
 // DataError for a mosaic without Y, var.Y and valid, or pattern None.
 ExrImage demosaic_merged(const ExrImage& mosaic, dev::CfaPattern pattern);
 
+// The same bilinear interpolation for a linear mosaic without variance (a linearised frame):
+// three channels, camera RGB.
+ImageF demosaic_bilinear(const ImageF& mosaic, dev::CfaPattern pattern);
+
 // Luminance (R + 2G + B) / 4 at every pixel of a linear mosaic without demosaicing: the mosaic
 // filtered by [1 2 1] x [1 2 1] / 16, which sees every 2x2 filter block's colours in those
 // proportions wherever it is centred (weights renormalised at the image's border).
 ImageF cfa_luminance(const ImageF& mosaic);
+
+// A colour camera's gains (R, G, B relative to green) measured on a linear mosaic of a grey
+// target (a chessboard, the white reference, a grey sphere under the LED): the median over the
+// flat 2x2 blocks (all four sites between 20 % and 100 % of the image's 99th percentile, the
+// two greens within 5 % of each other: no edge, no highlight's flank runs through them).
+// Unset when fewer than `min_blocks` blocks qualify or their ratios scatter by more than 3 %
+// (MAD): a dark image with a highlight, whose "flat" blocks are noise.
+std::optional<std::array<double, 3>> grey_gains(const ImageF& mosaic, dev::CfaPattern pattern, int min_blocks = 200);
+
+// The luminance of the mosaic with each colour's sites divided by its gain first: the mosaic
+// of a grey scene becomes flat, so a small bright spot (a highlight) is not pulled towards the
+// sites of the strongest colour.
+ImageF balanced_luminance(const ImageF& mosaic, dev::CfaPattern pattern, const std::array<double, 3>& gains);
 
 }  // namespace paintlab::acq

@@ -58,6 +58,10 @@ struct SphereOptions {
   // image, the physics of a lit Lambertian limb: limb_onset in sphere.cpp), not fitted per
   // sector, where it would also absorb any mismatch of the blur model and move the edge.
   bool limb_onset_from_shading = true;
+  // Blur the processing added to the images (variance per axis, px^2; a colour camera's
+  // luminance filter [1 2 1] x [1 2 1] / 16 adds 0.5): the focus figures (edge_sigma_px,
+  // edge_width_px, psf_sigma_px) report the camera's, without it.
+  double image_blur_var_px2 = 0.0;
   // Optional starting circle (pixels); radius 0: found by thresholding.
   Vec2 approx_centre_px = Vec2::Zero();
   double approx_radius_px = 0.0;
