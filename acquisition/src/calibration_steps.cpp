@@ -146,6 +146,24 @@ calib::ScaleCalibration scale_step(const StepImages& in, const calib::RigCalibra
   o.albedo = albedo;
   o.fit_profile = cal.has(calib::kFlatFile);
   calib::ScaleCalibration sc = calib::calibrate_scale(images, cal.camera(), *cal.sphere(), cal.light()->model, o);
+  if (!shots.empty() && shots.front().rgb.channels() == 3) {
+    // A colour camera: the white reference per camera channel, with the LED profile found above.
+    calib::ScaleOptions per_channel = o;
+    per_channel.fit_profile = false;
+    per_channel.profile_exponent = sc.profile_exponent;
+    std::array<double, 3> rgb{};
+    for (int c = 0; c < 3; ++c) {
+      std::vector<calib::ReferenceImage> channel = images;
+      for (std::size_t k = 0; k < shots.size(); ++k) {
+        ImageF& rate = channel[k].rate;
+        for (int y = 0; y < rate.height(); ++y)
+          for (int x = 0; x < rate.width(); ++x) rate.at(x, y) = shots[k].rgb.at(x, y, c);
+      }
+      rgb[static_cast<std::size_t>(c)] =
+          calib::calibrate_scale(channel, cal.camera(), *cal.sphere(), cal.light()->model, per_channel).scale;
+    }
+    sc.scale_rgb = rgb;
+  }
   sc.provenance = calib::Provenance::make("scale", files_of(shots), in.devices);
   if (sc.saturated_frac > rig.tolerances.saturated_frac)
     throw CalibrationError(fmt::format("calibrate scale: the reference is saturated in {:.3f} % of its lit pixels "

@@ -59,11 +59,17 @@ std::string LightCalibration::describe() const {
 }
 
 std::string ScaleCalibration::describe() const {
-  return fmt::format(
+  std::string s = fmt::format(
       "scale: {:.6g} DN/s per (1/sr W/m^2 per W/sr) +- {:.3f} %, images agree within {:.3f} %, LED profile cos^n "
       "with n = {:.2f} +- {:.2f}; {} pixels, {} saturated ({:.3f} %)",
       scale, 100 * uncertainty_rel, 100 * spread_rel, profile_exponent, profile_exponent_std, pixels, saturated,
       100 * saturated_frac);
+  if (scale_rgb)
+    s += fmt::format("\n  per camera channel R, G, B: {:.6g}, {:.6g}, {:.6g} (white balance under the LED R/G {:.4f}, "
+                     "B/G {:.4f})",
+                     (*scale_rgb)[0], (*scale_rgb)[1], (*scale_rgb)[2], (*scale_rgb)[0] / (*scale_rgb)[1],
+                     (*scale_rgb)[2] / (*scale_rgb)[1]);
+  return s;
 }
 
 std::string DarkFrame::describe() const {

@@ -170,6 +170,7 @@ Json ScaleCalibration::to_json() const {
           {"saturated_frac", saturated_frac},
           {"residual_rel", residual_rel},
           {"images", im},
+          {"scale_rgb", scale_rgb ? Json(*scale_rgb) : Json()},
           {"provenance", provenance.to_json()}};
 }
 
@@ -191,6 +192,12 @@ ScaleCalibration ScaleCalibration::from_json(const Json& j, const std::string& w
       c.images.push_back({json_get<double>(o, "table_angle_deg", where), json_get_or<std::string>(o, "name", "", where),
                           json_get_or<long long>(o, "pixels", 0, where), json_get_or<long long>(o, "saturated", 0, where),
                           json_get_or<double>(o, "scale", 0.0, where)});
+  if (j.contains("scale_rgb") && !j.at("scale_rgb").is_null()) {
+    const std::vector<double> rgb = json_get<std::vector<double>>(j, "scale_rgb", where);
+    if (rgb.size() != 3 || !(rgb[0] > 0 && rgb[1] > 0 && rgb[2] > 0))
+      throw DataError(where + ": key 'scale_rgb' must hold three scales > 0 (R, G, B)");
+    c.scale_rgb = std::array<double, 3>{rgb[0], rgb[1], rgb[2]};
+  }
   if (j.contains("provenance")) c.provenance = Provenance::from_json(j.at("provenance"), where);
   return c;
 }

@@ -123,6 +123,15 @@ TEST(CalibrateSimCli, ABayerCameraCalibratesAndChecksAndTheMeasurementSaysItCann
   // true radius, the focus figure without the luminance filter's blur.
   EXPECT_NEAR(cam["dist"][1].get<double>(), 0.3, 0.15);
   EXPECT_NEAR(read_json_file(calib / "light.json")["arm_radius_m"].get<double>(), 0.6015, 0.006);
+  // The white reference per camera channel: the camera's gains times its mix's row sums
+  // (0.6 x 1.0, 1.0 x 1.0, 0.8 x 1.0 for a white LED) relative to green.
+  const Json scale = read_json_file(calib / "scale.json");
+  ASSERT_TRUE(scale["scale_rgb"].is_array());
+  const double g = scale["scale_rgb"][1].get<double>();
+  EXPECT_NEAR(scale["scale_rgb"][0].get<double>() / g, 0.6, 0.012);
+  EXPECT_NEAR(scale["scale_rgb"][2].get<double>() / g, 0.8, 0.016);
+  EXPECT_NEAR(scale["scale"].get<double>() / g, 1.0, 0.02);  // the luminance is balanced to green
+  EXPECT_THAT(r.out, ::testing::HasSubstr("per camera channel R, G, B"));
   const Json sphere = read_json_file(calib / "sphere.json");
   EXPECT_LT(sphere["rms_px"].get<double>(), 0.05);
   EXPECT_LT(sphere["edge_width_px"].get<double>(), 1.6);

@@ -135,3 +135,20 @@ TEST(ScaleSim, LedOffIsAnErrorThatSaysWhy) {
   EXPECT_THAT(test::error_message<CalibrationError>([&] { calibrate_scale({dark}, truth_camera(world), truth_sphere(world), truth_light(world), o); }),
               ::testing::AllOf(::testing::HasSubstr("only 0 usable reference pixels"), ::testing::HasSubstr("led-off")));
 }
+
+TEST(ScaleFile, AColourCamerasPerChannelScaleRoundTripsAndIsChecked) {
+  ScaleCalibration s;
+  s.scale = 2.5e5;
+  s.scale_rgb = std::array<double, 3>{1.5e5, 2.5e5, 2.0e5};
+  const ScaleCalibration back = ScaleCalibration::from_json(s.to_json(), "scale.json");
+  ASSERT_TRUE(back.scale_rgb);
+  EXPECT_EQ(*back.scale_rgb, *s.scale_rgb);
+  EXPECT_THAT(back.describe(), ::testing::HasSubstr("white balance under the LED R/G 0.6000, B/G 0.8000"));
+  ScaleCalibration mono;
+  mono.scale = 1.0;
+  EXPECT_FALSE(ScaleCalibration::from_json(mono.to_json(), "scale.json").scale_rgb);
+  Json bad = s.to_json();
+  bad["scale_rgb"] = Json::array({1.0, 0.0, 1.0});
+  EXPECT_THAT(test::error_message<DataError>([&] { ScaleCalibration::from_json(bad, "scale.json"); }),
+              ::testing::HasSubstr("scale.json: key 'scale_rgb' must hold three scales > 0 (R, G, B)"));
+}

@@ -9,7 +9,9 @@
 // reference f = albedo / pi, so every lit reference pixel gives s P(alpha) = V / (albedo/pi
 // cos(theta_i) / d^2); a least-squares line of log(s P) against log(cos alpha) gives log s
 // and n. A sample's BRDF is then V / (s E): in 1/sr.
+#include <array>
 #include <filesystem>
+#include <optional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -61,6 +63,10 @@ struct ScaleCalibration {
   double saturated_frac = 0.0;   // clipped / (clipped + used) reference pixels
   double residual_rel = 0.0;     // RMS relative residual of the pixels
   std::vector<ScaleImageReport> images;
+  // A colour camera's scale per camera channel (R, G, B), each from the white reference seen
+  // in that channel, the LED profile shared: their ratios are the camera's white balance under
+  // the LED. `scale` is then the luminance's (the grey-balanced mosaic's, docs/calibration.md).
+  std::optional<std::array<double, 3>> scale_rgb{};
   Provenance provenance;
 
   // BRDF (1/sr) of a pixel value per second V seen on a surface with irradiance E per unit
