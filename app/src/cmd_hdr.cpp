@@ -3,6 +3,7 @@
 //   paintlab hdr merge --images FILES... (--exposures LIST | --exposure-file F)
 //                      [--response response.json] [--dark dark.json] [--flat flat.json] --out FILE.exr
 //   paintlab hdr merge --images ... --rig R --out FILE.exr   (the rig's response/dark/flat that exist)
+//   paintlab hdr merge --images BAYER... --cfa RG ...          (a Bayer stack: camera R, G, B)
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -12,6 +13,7 @@
 #include "rig_devices.h"
 #include "cli.h"
 #include "paintlab/fitting/output_guard.h"
+#include "paintlab/acquisition/demosaic.h"
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/core/error.h"
@@ -29,7 +31,7 @@ void register_hdr_commands(CLI::App& app) {
   CLI::App* group = subcommand_group(app, "hdr", "High dynamic range images from exposure stacks");
   struct Args {
     StackInput input;
-    std::string rig, response, dark, flat, out, weighting;
+    std::string rig, response, dark, flat, out, weighting, cfa;
     double saturation = -1.0, floor = -1.0, black = -1.0, read_noise = -1.0, gain = -1.0;
     bool half = false;
   };
@@ -50,6 +52,9 @@ void register_hdr_commands(CLI::App& app) {
   cmd->add_option("--read-noise", a->read_noise, "read noise in DN for the variance (with --gain)");
   cmd->add_option("--gain", a->gain, "conversion gain in DN per electron for the variance (with --read-noise)");
   cmd->add_flag("--half", a->half, "write half floats instead of 32-bit floats");
+  cmd->add_option("--cfa", a->cfa,
+                  "a Bayer camera's frames (RG, GR, GB or BG, GenICam's names): merge the mosaic, then demosaic the "
+                  "radiance to camera R, G, B with its variance");
   on_run(cmd, [a] {
     const fs::path out(a->out);
     if (out.extension() != ".exr") throw UsageError("--out: " + a->out + " is not an .exr file");
@@ -90,6 +95,14 @@ void register_hdr_commands(CLI::App& app) {
     const auto t0 = std::chrono::steady_clock::now();
     acq::HdrMerger merger(cal, opt, first.width(), first.height(), first.channels(), stack.bit_depth);
     acq::HdrResult r = merger.merge(frames);
+    if (!a->cfa.empty()) {
+      if (first.channels() != 1) throw UsageError("--cfa: the images have " + std::to_string(first.channels()) + " channels; a Bayer mosaic has one");
+      const dev::CfaPattern cfa = dev::cfa_pattern_from_string(a->cfa, "--cfa");
+      if (cfa == dev::CfaPattern::None) throw UsageError("--cfa none: give the arrangement (RG, GR, GB or BG)");
+      r.image = acq::demosaic_merged(r.image, cfa);
+      r.image.attributes["paintlab.cfa"] = a->cfa;
+      r.image.attributes["paintlab.colour_space"] = "camera RGB (linear, not colour-calibrated)";
+    }
     const double merge_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     files.stamp(r.image);
     if (out.has_parent_path()) fs::create_directories(out.parent_path());

@@ -105,6 +105,10 @@ std::optional<PixelFormat> pixel_format_from_pfnc(std::uint32_t code) {
 
 const char* to_string(CfaPattern p) { return enum_name(kCfaNames, p, "none"); }
 
+CfaPattern cfa_pattern_from_string(const std::string& name, const std::string& where) {
+  return enum_from_name(kCfaNames, name, "colour-filter arrangement", where);
+}
+
 int cfa_colour(CfaPattern p, int x, int y) {
   // The top-left 2x2 block, row by row, as colour indices.
   static constexpr int kBlocks[5][4] = {{-1, -1, -1, -1}, {0, 1, 1, 2}, {1, 0, 2, 1}, {1, 2, 0, 1}, {2, 1, 1, 0}};

@@ -238,3 +238,35 @@ TEST(RadiometryCli, BadInputExitsTwoNamesTheProblemAndWritesNothing) {
   EXPECT_THAT(r.err, HasSubstr("junk.png"));
   EXPECT_FALSE(fs::exists(dir / "out.exr"));
 }
+
+TEST(RadiometryCli, ABayerStackMergesToCameraRgbWithItsVariance) {
+  // A 16-bit linear mosaic (GenICam BayerGB: G B / R G) of a scene of one colour per channel
+  // (DN/s): R 2000, G 5000, B 1000, three exposures.
+  test::TempDir dir;
+  const double rate[3] = {2000.0, 5000.0, 1000.0};
+  const auto colour = [](int x, int y) { return (y & 1) ? ((x & 1) ? 1 : 0) : ((x & 1) ? 2 : 1); };
+  std::string images;
+  const std::vector<double> times = {0.5, 2.0, 8.0};
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    Image<std::uint16_t> m(24, 16, 1);
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 24; ++x)
+        m.at(x, y) = static_cast<std::uint16_t>(std::min(65535.0, std::round(rate[colour(x, y)] * times[k])));
+    const fs::path f = dir / ("bayer" + std::to_string(k) + ".png");
+    write_png(f, m, 16);
+    images += " '" + f.string() + "'";
+  }
+  const std::string out = (dir / "rgb.exr").string();
+  auto r = test::run_paintlab("hdr merge --images" + images + " --exposures 0.5,2,8 --cfa GB --out '" + out + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const ExrImage e = read_exr(out);
+  std::vector<std::string> names = e.names;  // the EXR file keeps them in alphabetical order
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"B", "G", "R", "valid", "var.B", "var.G", "var.R"}));
+  EXPECT_EQ(e.attributes.at("paintlab.cfa"), "GB");
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(e.plane(std::string(1, "RGB"[c])).at(11, 7), rate[c], 0.01 * rate[c]) << c;
+  EXPECT_EQ(e.plane("valid").at(11, 7), 1.0f);
+  r = test::run_paintlab("hdr merge --images" + images + " --exposures 0.5,2,8 --cfa XY --out '" + out + "2.exr'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--cfa: unknown colour-filter arrangement 'XY' (expected none, RG, GR, GB or BG)"));
+}

@@ -33,6 +33,8 @@ int bit_depth(PixelFormat f);        // significant bits of each value: 8, 12, 1
 int channels(PixelFormat f);         // values per pixel: 3 for RGB8, else 1 (a Bayer frame is one mosaic)
 CfaPattern cfa_pattern(PixelFormat f);  // None for Mono and RGB8
 const char* to_string(CfaPattern p);  // "none", "RG", "GR", "GB", "BG"
+// The arrangement named (to_string's names); DataError naming `where` and the names otherwise.
+CfaPattern cfa_pattern_from_string(const std::string& name, const std::string& where);
 // The colour (0 R, 1 G, 2 B) that pixel (x, y) of a `p` mosaic records; -1 for None.
 int cfa_colour(CfaPattern p, int x, int y);
 // The format's GenICam PFNC code (what the PixelFormat register and a buffer's header hold;
