@@ -67,9 +67,31 @@ calib::IntrinsicsResult intrinsics_step(const StepImages& in, const calib::Board
 
 calib::ColourCalibration colour_step(const StepImages& in, const calib::ChartReference& reference,
                                      const calib::ColourFitOptions& options) {
-  if (in.files.empty())
-    throw UsageError("calibrate colour: give --images (linear RGB EXR images of the chart, e.g. from `paintlab hdr merge`)");
+  if (in.files.empty() && !in.capture)
+    throw UsageError("calibrate colour: give --images (linear RGB EXR images of the chart, e.g. from `paintlab hdr merge`) "
+                     "or --rig R --capture");
   std::vector<calib::PatchMeasurement> sum;
+  if (in.files.empty()) {  // captured: one shot of the chart, auto-exposed so that its white stays unclipped
+    in.capture->stage->show_chart();
+    const Shot s = in.capture->shot({"colour", "chart", std::nullopt, true, 0.7, 0.9999, std::nullopt});
+    in.capture->stage->mount(Target::Sample);
+    if (s.rgb.channels() != 3)
+      throw CalibrationError("calibrate colour: the camera is monochrome (" + s.file.filename().string() +
+                             "): a colour chart needs a colour camera (a Bayer pixel_format in rig.toml)");
+    calib::ChartDetection found = calib::find_colour_chart(s.rgb, reference);
+    // A patch with a clipped site near its centre is clipped.
+    for (std::size_t k = 0; k < found.patches.size(); ++k) {
+      const int r = static_cast<int>(0.3 * found.pitch_px);
+      const int cx = static_cast<int>(found.centres[k].x()), cy = static_cast<int>(found.centres[k].y());
+      for (int y = std::max(0, cy - r); y <= std::min(s.saturated.height() - 1, cy + r); ++y)
+        for (int x = std::max(0, cx - r); x <= std::min(s.saturated.width() - 1, cx + r); ++x)
+          if (s.saturated.at(x, y)) found.patches[k].clipped = true;
+    }
+    calib::ColourCalibration cal = calib::fit_colour(reference, found.patches, options);
+    std::vector<std::filesystem::path> read = {s.file, std::filesystem::path(reference.source)};
+    cal.provenance = calib::Provenance::make("colour", read, in.devices);
+    return cal;
+  }
   for (const auto& path : in.files) {
     const ExrImage exr = read_exr(path);
     ImageF rgb(exr.width, exr.height, 3);

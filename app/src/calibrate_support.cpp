@@ -7,6 +7,7 @@
 
 #include "cli.h"
 #include "paintlab/brdf/cook_torrance.h"
+#include "paintlab/calibration/colour.h"
 #include "paintlab/calibration/dark.h"
 #include "paintlab/calibration/flat.h"
 #include "paintlab/calibration/procedure.h"
@@ -39,6 +40,11 @@ class ConsoleStage final : public acq::Stage {
     if (target == current_) return;
     prompt(fmt::format("Put {} on the holder and press Enter", acq::to_string(target)));
     current_ = target;
+  }
+  void show_chart() override {
+    prompt("Put the ColorChecker in front of the camera, facing it, evenly lit by the LED without glare, its black "
+           "border in view, and press Enter");
+    current_ = Target::Sample;  // whatever was on the holder is hidden or moved: ask again next time
   }
   void cover_lens(acq::LensView view) override {
     switch (view) {
@@ -109,6 +115,15 @@ class SimStage final : public acq::Stage {
     q.kind = view == acq::LensView::Capped ? sim::SceneKind::Dark : sim::SceneKind::Flat;
     q.exposure_s = 0.01;
     rig_.show(std::make_shared<ImageF>(sim::render_scene(rig_.world(), q).radiance));
+  }
+  // The ColorChecker's reference colours (the argyll-ref file) rendered on the rig, lit by the LED's white.
+  void show_chart() override {
+    sim::SceneRequest q;
+    q.kind = sim::SceneKind::ColourChart;
+    q.channels = 3;
+    q.chart.patch_rgb = calib::ChartReference::load(calib::kColorCheckerReference).srgb_reflectances();
+    rig_.show(std::make_shared<ImageF>(sim::render_scene(rig_.world(), q).radiance));
+    board_shown_ = true;
   }
   double known_albedo() const override { return albedo_; }
 

@@ -11,7 +11,7 @@
 //   paintlab calibrate light  --rig R (--images FILES... | --capture) [--angles -150:150:10]
 //   paintlab calibrate scale  --rig R (--images FILES... | --capture) --albedo A [--angles -40,0,40]
 //   paintlab calibrate all    --rig R (--images DIR | --capture) [--albedo A] [--fix-k3 | --free-k3]
-//   paintlab calibrate colour --images CHART.exr (--rig R | --out colour.json) [--model M] [--reference F]
+//   paintlab calibrate colour (--images CHART.exr | --capture) (--rig R | --out colour.json) [--model M] [--reference F]
 // With --capture the frames are kept in calib/captures/<step>/; on a simulated rig the
 // simulator puts the lens cap, the boards, the references and the diffuser in place, on a
 // real rig the technician does when asked.
@@ -296,15 +296,27 @@ void run_step_command(const std::string& step, const StepCommon& a, const std::f
 struct ColourArgs {
   std::vector<std::string> images;
   std::string rig, out, reference = calib::kColorCheckerReference, model = "matrix";
+  bool capture = false;
 };
 
 int run_colour(const ColourArgs& a) {
-  if (a.rig.empty() == a.out.empty()) throw UsageError("calibrate colour: give --rig R (writes its calibration folder's colour.json) or --out FILE");
+  if (a.rig.empty() && a.out.empty()) throw UsageError("calibrate colour: give --rig R (writes its calibration folder's colour.json) or --out FILE");
+  if (a.capture == !a.images.empty()) throw UsageError("calibrate colour: give either --images or --rig R --capture");
+  if (a.capture && a.rig.empty()) throw UsageError("calibrate colour: --capture needs --rig");
   const calib::ColourFitOptions o{.model = calib::colour_model_from_string(a.model, "--model")};
-  const acq::StepImages in{.files = expand_input_files(a.images, "--images", {".exr"})};
+  acq::StepImages in;
+  if (!a.capture) in.files = expand_input_files(a.images, "--images", {".exr"});
   OutputSpec out(a.out.empty() ? "--rig" : "--out", a.out.empty() ? load_rig(a.rig).calibration_dir / calib::kColourFile : fs::path(a.out));
   out.create_parents = true;
   fit::OutputGuard().inputs("--images", in.files).input("--reference", a.reference).output(out).check();
+  std::unique_ptr<CalibSession> session;
+  acq::CalibrationRig rig;
+  if (a.capture) {
+    session = std::make_unique<CalibSession>(open_calib_session(load_rig(a.rig), 0.0));
+    rig = session->capture_rig();
+    in.capture = &rig;
+    in.devices = session->serials;
+  }
   const calib::ColourCalibration cal = acq::colour_step(in, calib::ChartReference::load(a.reference), o);
   if (out.path.has_parent_path()) fs::create_directories(out.path.parent_path());
   cal.save(out.path);
@@ -395,7 +407,8 @@ void register_calibrate_commands(CLI::App& app) {
   }
 
   auto [colour, k] = add_command<ColourArgs>(group, "colour", "The colour matrix from a ColorChecker 24 (writes colour.json)", run_colour);
-  colour->add_option("--images", k->images, "linear RGB EXR images of the chart (hdr merge of a colour stack)")->required();
+  colour->add_option("--images", k->images, "linear RGB EXR images of the chart (hdr merge of a colour stack)");
+  colour->add_flag("--capture", k->capture, "photograph the chart through the rig's colour camera (needs --rig)");
   colour->add_option("--rig", k->rig, "rig.toml: writes its calibration folder's colour.json");
   colour->add_option("--out", k->out, "output file (instead of --rig)");
   colour->add_option("--reference", k->reference, "the chart's CGATS reference (LAB_L.. or XYZ_X..)")->capture_default_str();

@@ -69,3 +69,35 @@ TEST(ColourCli, BadInputExitsTwoSayingWhatAndWritesNothing) {
   EXPECT_THAT(r.err, HasSubstr("give --rig R (writes its calibration folder's colour.json) or --out FILE"));
   EXPECT_FALSE(fs::exists(out));
 }
+
+// On a simulated rig with a Bayer camera whose channels are not sRGB's and a warm LED: the
+// dark frame first (the chart's values must be black-subtracted), then the chart photographed
+// and calibrated; the monochrome rig is told it cannot.
+TEST(ColourCli, TheChartPhotographedThroughTheRigsBayerCameraMeetsTheTargets) {
+  test::TempDir dir;
+  test::SimRigSpec spec;
+  spec.pixel_format = "BayerRG16";
+  spec.width = 800;
+  spec.height = 600;
+  spec.extra = "[sim]\nseed = 3\n[sim.camera]\nrgb_matrix = [0.8, 0.25, -0.05, 0.1, 0.85, 0.05, 0.02, 0.2, 0.78]\n"
+               "rgb_gain = [0.6, 1.0, 0.8]\n[sim.led]\ncolor = [1.0, 0.9, 0.75]\n";
+  test::write_text(dir / "rig.toml", test::sim_rig_toml(spec));
+  const std::string rig = (dir / "rig.toml").string();
+  auto r = test::run_paintlab("calibrate dark --rig " + rig + " --capture", 120);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  r = test::run_paintlab("calibrate colour --rig " + rig + " --capture", 120);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  std::printf("%s", r.out.c_str());
+  const Json j = read_json_file(dir / "calib" / "colour.json");
+  // The chart targets on the noisy simulator.
+  EXPECT_LT(j["mean_de00"].get<double>(), 0.5);
+  EXPECT_LT(j["max_de00"].get<double>(), 1.5);
+  EXPECT_THAT(j["provenance"]["inputs"][0]["path"].get<std::string>(), HasSubstr("chart.png"));
+
+  test::SimRigSpec mono = spec;
+  mono.pixel_format = "Mono16";
+  test::write_text(dir / "mono.toml", test::sim_rig_toml(mono));
+  r = test::run_paintlab("calibrate colour --rig " + (dir / "mono.toml").string() + " --capture", 120);
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_THAT(r.err, HasSubstr("a colour chart needs a colour camera"));
+}

@@ -22,6 +22,7 @@ class RecordingStage final : public acq::Stage {
   }
   void mount(acq::Target target) override { calls.push_back(std::string("mount ") + acq::to_string(target)); }
   void cover_lens(acq::LensView view) override { calls.push_back(std::string("lens ") + acq::to_string(view)); }
+  void show_chart() override { calls.push_back("chart"); }
   std::vector<std::string> calls;
 };
 

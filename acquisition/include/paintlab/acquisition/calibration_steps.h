@@ -75,8 +75,10 @@ calib::ScaleCalibration scale_step(const StepImages& in, const calib::RigCalibra
 // The colour characterisation from images of a ColorChecker 24: linear RGB EXR files (R, G, B
 // channels; `paintlab hdr merge` of a colour stack, or the simulator's render), the chart
 // found and measured in each (calibration/colour.h), patch values averaged over the images
-// (repeated shots of one set-up), the model fitted. UsageError without files (capturing the
-// chart needs the colour measurement path, issue 14); DataError for an image without R, G, B.
+// (repeated shots of one set-up), the model fitted; or, without files, one shot of the chart
+// the stage shows (Stage::show_chart) through a colour camera, linearised with the rig's
+// response, dark and flat. DataError for an image without R, G, B; CalibrationError for a
+// monochrome camera or no chart found.
 calib::ColourCalibration colour_step(const StepImages& in, const calib::ChartReference& reference,
                                      const calib::ColourFitOptions& options);
 

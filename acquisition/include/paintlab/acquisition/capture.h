@@ -52,6 +52,9 @@ class Stage {
   virtual void show_board(int index, int count, const calib::BoardSpec& board) = 0;
   virtual void mount(Target target) = 0;
   virtual void cover_lens(LensView view) = 0;
+  // A colour chart (ColorChecker 24) facing the camera, in view and evenly lit, until
+  // mount() or cover_lens() changes the scene.
+  virtual void show_chart() = 0;
   // The reference's certified albedo when the stage knows it (the simulator), else 0.
   virtual double known_albedo() const { return 0.0; }
 };
