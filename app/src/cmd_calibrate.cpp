@@ -11,6 +11,7 @@
 //   paintlab calibrate light  --rig R (--images FILES... | --capture) [--angles -150:150:10]
 //   paintlab calibrate scale  --rig R (--images FILES... | --capture) --albedo A [--angles -40,0,40]
 //   paintlab calibrate all    --rig R (--images DIR | --capture) [--albedo A] [--fix-k3 | --free-k3]
+//                             (a colour camera: colour.json too, from the chart captured or DIR/colour/)
 //   paintlab calibrate colour (--images CHART.exr | --capture) (--rig R | --out colour.json) [--model M] [--reference F]
 // With --capture the frames are kept in calib/captures/<step>/; on a simulated rig the
 // simulator puts the lens cap, the boards, the references and the diffuser in place, on a
@@ -35,6 +36,7 @@
 #include "paintlab/core/error.h"
 #include "paintlab/core/input_files.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/devices/device_config.h"
 #include "paintlab/fitting/output_guard.h"
 #include "radiometry_support.h"
 #include "rig_devices.h"
@@ -438,6 +440,17 @@ void register_calibrate_commands(CLI::App& app) {
           say(fmt::format("== {} ==", step));
           calib::require_step_inputs(c.rig.calibration_dir, step, c.rig.file);
           runners->at(step)(c);
+        }
+        // A colour camera's colour matrix last (linearised with everything above): the chart
+        // captured, or DIR/colour/ when it holds the chart's images.
+        const bool colour = dev::cfa_pattern(dev::camera_config(c.rig.camera, c.rig.geometry).pixel_format) !=
+                            dev::CfaPattern::None;
+        if (colour && (c.session || fs::is_directory(*c.images_dir / "colour"))) {
+          say("== colour ==");
+          const calib::ColourCalibration cal = acq::colour_step(
+              step_images(c, "colour", {}), calib::ChartReference::load(calib::kColorCheckerReference), {});
+          cal.save(c.rig.calibration_dir / calib::kColourFile);
+          say(cal.describe() + "\n  wrote " + (c.rig.calibration_dir / calib::kColourFile).string());
         }
         if (c.session) c.session->stage->mount(Target::Sample);
         say("calibration done: run `paintlab check --rig " + args.rig + "` to see whether the rig is fit to measure");

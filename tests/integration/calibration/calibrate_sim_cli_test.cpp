@@ -117,6 +117,11 @@ TEST(CalibrateSimCli, ABayerCameraCalibratesAndChecksAndTheMeasurementSaysItCann
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   std::printf("%s", r.out.c_str());
   EXPECT_THAT(r.out, ::testing::HasSubstr("each filter colour normalised on its own"));
+  // The colour matrix last, from the chart photographed through the camera.
+  EXPECT_THAT(r.out, ::testing::HasSubstr("== colour =="));
+  const Json colour = read_json_file(calib / "colour.json");
+  EXPECT_LT(colour["mean_de00"].get<double>(), 0.5);
+  EXPECT_LT(colour["max_de00"].get<double>(), 1.5);
   const Json cam = read_json_file(calib / "camera.json");
   EXPECT_NEAR(cam["K"][0][0].get<double>(), 3008.0, 3008.0 * 0.002);
   // The distortion as the monochrome rig finds it (true k2 0.3), the LED arm within 1 % of its
@@ -139,6 +144,7 @@ TEST(CalibrateSimCli, ABayerCameraCalibratesAndChecksAndTheMeasurementSaysItCann
   std::printf("%s", r.out.c_str());
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_THAT(r.out, ::testing::HasSubstr("RIG OK"));
+  EXPECT_THAT(r.out, ::testing::HasSubstr("colour.mean_de00"));
   r = test::run_paintlab("measure --rig " + rig + " --sample blue --out " + (dir / "session").string(), 120);
   EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
   EXPECT_THAT(r.err, ::testing::HasSubstr("the camera records BayerRG16 (a colour mosaic)"));
