@@ -32,6 +32,12 @@ AdaptiveBracketing::AdaptiveBracketing(AdaptiveOptions options, Image<std::uint8
 std::vector<double> AdaptiveBracketing::choose(const std::vector<double>& bracket_s, const ExrImage* previous) {
   last_worst_loss_ = 0.0;
   if (!previous || bracket_s.empty()) return bracket_s;
+  std::shared_ptr<const ExrImage> mosaic;
+  if (source_) {
+    mosaic = source_();
+    if (!mosaic) return bracket_s;
+    previous = mosaic.get();
+  }
   const ImageF* e = previous->find(options_.channel);
   if (!e) return bracket_s;
   const bool use_mask = !mask_.empty();

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
@@ -54,50 +56,179 @@ Image<std::uint16_t> demosaic(const Image<std::uint16_t>& mosaic, dev::CfaPatter
   return rgb;
 }
 
-ExrImage demosaic_merged(const ExrImage& mosaic, dev::CfaPattern pattern) {
-  if (pattern == dev::CfaPattern::None) throw DataError("demosaic: the merged image has no colour filter array (pattern none)");
-  const ImageF* value = mosaic.find("Y");
-  const ImageF* variance = mosaic.find("var.Y");
-  const ImageF* valid = mosaic.find("valid");
-  if (!value || !variance || !valid)
+std::array<double, 3> ColourMap::apply(const std::array<double, 3>& camera) const {
+  std::array<double, 3> b{camera[0] * balance[0], camera[1] * balance[1], camera[2] * balance[2]};
+  if (nonlinear) return nonlinear(b);
+  if (!matrix) return b;
+  const auto& m = *matrix;
+  return {m[0] * b[0] + m[1] * b[1] + m[2] * b[2], m[3] * b[0] + m[4] * b[1] + m[5] * b[2],
+          m[6] * b[0] + m[7] * b[1] + m[8] * b[2]};
+}
+
+namespace {
+
+// One demosaiced pixel: camera value, variance and validity per channel.
+struct Demosaiced {
+  float v[3];
+  float var[3];
+  bool ok[3];
+};
+
+// The bilinear estimate at (x, y) near the border (neighbours outside the image left out,
+// the weights renormalised).
+Demosaiced demosaic_at_border(const float* value, const float* variance, const float* valid, int w, int h, int x,
+                              int y, const int colour[2][2]) {
+  double sum[3] = {0, 0, 0}, sum_w[3] = {0, 0, 0}, sum_var[3] = {0, 0, 0};
+  bool ok[3] = {true, true, true};
+  const int own = colour[y & 1][x & 1];
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int sx = x + dx, sy = y + dy;
+      if (sx < 0 || sy < 0 || sx >= w || sy >= h) continue;
+      const int c = colour[sy & 1][sx & 1];
+      if (c == own && (dx != 0 || dy != 0)) continue;  // a site keeps its own colour
+      const std::size_t i = static_cast<std::size_t>(sy) * static_cast<std::size_t>(w) + static_cast<std::size_t>(sx);
+      const double k = (2 - std::abs(dx)) * (2 - std::abs(dy));
+      sum[c] += k * value[i];
+      sum_w[c] += k;
+      sum_var[c] += k * k * variance[i];
+      ok[c] = ok[c] && valid[i] > 0.5f;
+    }
+  Demosaiced d{};
+  for (int c = 0; c < 3; ++c) {
+    d.v[c] = static_cast<float>(sum[c] / sum_w[c]);
+    d.var[c] = static_cast<float>(sum_var[c] / (sum_w[c] * sum_w[c]));
+    d.ok[c] = ok[c];
+  }
+  return d;
+}
+
+}  // namespace
+
+ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map) {
+  if (map.pattern == dev::CfaPattern::None)
+    throw DataError("demosaic: the merged image has no colour filter array (pattern none)");
+  const ImageF* value_plane = mosaic.find("Y");
+  const ImageF* variance_plane = mosaic.find("var.Y");
+  const ImageF* valid_plane = mosaic.find("valid");
+  if (!value_plane || !variance_plane || !valid_plane)
     throw DataError("demosaic: a merged mosaic has the planes Y, var.Y and valid (the HDR merge of a Bayer bracket)");
   const int w = mosaic.width, h = mosaic.height;
+  if (w < 2 || h < 2) throw DataError(fmt::format("demosaic: a {}x{} mosaic holds no 2x2 filter block", w, h));
+  int colour[2][2];
+  for (int py = 0; py < 2; ++py)
+    for (int px = 0; px < 2; ++px) colour[py][px] = dev::cfa_colour(map.pattern, px, py);
+  const float* value = value_plane->data();
+  const float* variance = variance_plane->data();
+  const float* valid = valid_plane->data();
+
   ExrImage out;
   out.width = w;
   out.height = h;
   out.attributes = mosaic.attributes;
-  const char* names[3] = {"R", "G", "B"};
-  ImageF rgb[3], var[3];
-  for (int c = 0; c < 3; ++c) {
-    rgb[c] = ImageF(w, h, 1);
-    var[c] = ImageF(w, h, 1);
-  }
-  ImageF ok(w, h, 1, 1.0f);
+  out.attributes["paintlab.colour_space"] = map.colour_space;
+  out.attributes["paintlab.cfa"] = dev::to_string(map.pattern);
+  std::vector<ImageF> planes(7);
+  tbb::parallel_for(0, 7, [&](int k) { planes[static_cast<std::size_t>(k)] = ImageF(w, h, 1); });
+  float* o_v[3] = {planes[0].data(), planes[1].data(), planes[2].data()};
+  float* o_var[3] = {planes[3].data(), planes[4].data(), planes[5].data()};
+  float* o_ok = planes[6].data();
+
+  // The colour map's coefficients on the balanced values, and their squares for the variance.
+  const bool linear = !map.nonlinear;
+  float m[9], m2[9];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const double mij = map.matrix ? (*map.matrix)[static_cast<std::size_t>(3 * i + j)] : (i == j ? 1.0 : 0.0);
+      const double b = map.balance[static_cast<std::size_t>(j)];
+      m[3 * i + j] = static_cast<float>(mij * b);
+      m2[3 * i + j] = static_cast<float>(mij * b * mij * b);
+    }
   const float inf = std::numeric_limits<float>::infinity();
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double sum[3] = {0, 0, 0}, sum_w[3] = {0, 0, 0}, sum_var[3] = {0, 0, 0};
-      bool all_valid[3] = {true, true, true};
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int sx = x + dx, sy = y + dy;
-          if (sx < 0 || sy < 0 || sx >= w || sy >= h) continue;
-          const int c = dev::cfa_colour(pattern, sx, sy);
-          const double k = (2 - std::abs(dx)) * (2 - std::abs(dy));
-          sum[c] += k * value->at(sx, sy);
-          sum_w[c] += k;
-          sum_var[c] += k * k * variance->at(sx, sy);
-          all_valid[c] = all_valid[c] && valid->at(sx, sy) > 0.5f;
-        }
-      for (int c = 0; c < 3; ++c) {
-        rgb[c].at(x, y) = static_cast<float>(sum[c] / sum_w[c]);
-        var[c].at(x, y) = all_valid[c] ? static_cast<float>(sum_var[c] / (sum_w[c] * sum_w[c])) : inf;
-        if (!all_valid[c]) ok.at(x, y) = 0.0f;
+
+  auto store = [&](std::size_t i, const Demosaiced& d) {
+    const bool ok = d.ok[0] && d.ok[1] && d.ok[2];
+    o_ok[i] = ok ? 1.0f : 0.0f;
+    if (linear) {
+      for (int r = 0; r < 3; ++r) {
+        o_v[r][i] = m[3 * r] * d.v[0] + m[3 * r + 1] * d.v[1] + m[3 * r + 2] * d.v[2];
+        // An invalid channel spoils the outputs it enters (camera RGB keeps the others).
+        const bool bad = (!d.ok[0] && m2[3 * r] != 0.0f) || (!d.ok[1] && m2[3 * r + 1] != 0.0f) ||
+                         (!d.ok[2] && m2[3 * r + 2] != 0.0f);
+        o_var[r][i] = bad ? inf : m2[3 * r] * d.var[0] + m2[3 * r + 1] * d.var[1] + m2[3 * r + 2] * d.var[2];
+      }
+      return;
+    }
+    // The non-linear map: its Jacobian by forward differences carries the variance.
+    const std::array<double, 3> cam{d.v[0], d.v[1], d.v[2]};
+    const std::array<double, 3> f = map.apply(cam);
+    double var_out[3] = {0, 0, 0};
+    for (int j = 0; j < 3; ++j) {
+      std::array<double, 3> shifted = cam;
+      const double step = 1e-4 * std::max({std::abs(cam[0]), std::abs(cam[1]), std::abs(cam[2]), 1e-12});
+      shifted[static_cast<std::size_t>(j)] += step;
+      const std::array<double, 3> g = map.apply(shifted);
+      for (int r = 0; r < 3; ++r) {
+        const double dr = (g[static_cast<std::size_t>(r)] - f[static_cast<std::size_t>(r)]) / step;
+        var_out[r] += dr * dr * d.var[j];
       }
     }
-  for (int c = 0; c < 3; ++c) out.add(names[c], std::move(rgb[c]));
-  for (int c = 0; c < 3; ++c) out.add(std::string("var.") + names[c], std::move(var[c]));
-  out.add("valid", std::move(ok));
+    for (int r = 0; r < 3; ++r) {
+      o_v[r][i] = static_cast<float>(f[static_cast<std::size_t>(r)]);
+      o_var[r][i] = ok && std::isfinite(var_out[r]) ? static_cast<float>(var_out[r]) : inf;
+    }
+  };
+
+  const std::size_t W = static_cast<std::size_t>(w);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y) {
+      const std::size_t row = static_cast<std::size_t>(y) * W;
+      const bool border_row = y == 0 || y == h - 1;
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = row + static_cast<std::size_t>(x);
+        if (border_row || x == 0 || x == w - 1) {
+          store(i, demosaic_at_border(value, variance, valid, w, h, x, y, colour));
+          continue;
+        }
+        const int own = colour[y & 1][x & 1];
+        const std::size_t up = i - W, down = i + W;
+        Demosaiced d;
+        d.v[own] = value[i];
+        d.var[own] = variance[i];
+        d.ok[own] = valid[i] > 0.5f;
+        if (own != 1) {
+          // A red or blue site: green from the four edge neighbours, the other from the four diagonals.
+          d.v[1] = 0.25f * (value[i - 1] + value[i + 1] + value[up] + value[down]);
+          d.var[1] = 0.0625f * (variance[i - 1] + variance[i + 1] + variance[up] + variance[down]);
+          d.ok[1] = valid[i - 1] > 0.5f && valid[i + 1] > 0.5f && valid[up] > 0.5f && valid[down] > 0.5f;
+          const int other = 2 - own;
+          d.v[other] = 0.25f * (value[up - 1] + value[up + 1] + value[down - 1] + value[down + 1]);
+          d.var[other] = 0.0625f * (variance[up - 1] + variance[up + 1] + variance[down - 1] + variance[down + 1]);
+          d.ok[other] = valid[up - 1] > 0.5f && valid[up + 1] > 0.5f && valid[down - 1] > 0.5f && valid[down + 1] > 0.5f;
+        } else {
+          // A green site: one colour left and right, the other above and below.
+          const int across = colour[y & 1][(x + 1) & 1], along = 2 - across;
+          d.v[across] = 0.5f * (value[i - 1] + value[i + 1]);
+          d.var[across] = 0.25f * (variance[i - 1] + variance[i + 1]);
+          d.ok[across] = valid[i - 1] > 0.5f && valid[i + 1] > 0.5f;
+          d.v[along] = 0.5f * (value[up] + value[down]);
+          d.var[along] = 0.25f * (variance[up] + variance[down]);
+          d.ok[along] = valid[up] > 0.5f && valid[down] > 0.5f;
+        }
+        store(i, d);
+      }
+    }
+  });
+  const char* names[7] = {"R", "G", "B", "var.R", "var.G", "var.B", "valid"};
+  for (int k = 0; k < 7; ++k) out.add(names[k], std::move(planes[static_cast<std::size_t>(k)]));
+  return out;
+}
+
+ExrImage demosaic_merged(const ExrImage& mosaic, dev::CfaPattern pattern) {
+  ColourMap map;
+  map.pattern = pattern;
+  ExrImage out = demosaic_to_colour(mosaic, map);
+  out.attributes = mosaic.attributes;  // camera RGB: nothing to state beyond what the mosaic said
   return out;
 }
 

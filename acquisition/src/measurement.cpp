@@ -4,8 +4,10 @@
 
 #include <cmath>
 
+#include "paintlab/calibration/colour.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/rig_calibration.h"
+#include "paintlab/calibration/scale.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
 #include "paintlab/core/result.h"
@@ -36,7 +38,8 @@ MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated, bool n
   if (auto p = use(calib::kFlatFile, "flat", false)) s.hdr.flat = calib::FlatField::load(*p);
   // Geometry files are not used by the merge, but the session records which ones were
   // current, so the fit can tell whether they changed after the measurement.
-  for (const char* name : {calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile})
+  for (const char* name :
+       {calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile, calib::kColourFile})
     use(name, "", false);
   if (need_sphere_mask) {
     calib::RigCalibration cal = calib::RigCalibration::load(dir);
@@ -53,11 +56,6 @@ MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated, bool n
 CameraPreparation prepare_camera(dev::Camera& camera, const RigConfig& rig) {
   CameraPreparation c;
   c.format = value_or_throw(camera.pixel_format());
-  if (dev::cfa_pattern(c.format) != dev::CfaPattern::None)
-    throw DataError(fmt::format(
-        "the camera records {} (a colour mosaic): `paintlab measure` merges monochrome frames only until the colour "
-        "merge is built (issue 14), and would record the mosaic as grey; measure with a Mono format",
-        dev::to_string(c.format)));
   c.gain_db = value_or_throw(camera.set_gain_db(rig.plan.gain_db));
   c.range = value_or_throw(camera.exposure_range());
   for (double t : rig.plan.exposures_s) {
@@ -68,6 +66,55 @@ CameraPreparation prepare_camera(dev::Camera& camera, const RigConfig& rig) {
                       rig.file.string(), t * 1e3, c.range.min_s * 1e3, c.range.max_s * 1e3, camera.id()));
   }
   return c;
+}
+
+void check_resume_camera(const SessionManifest& session, const CameraPreparation& camera,
+                         const std::string& session_dir) {
+  const std::string& started = session.options.pixel_format;
+  if (!started.empty() && started != dev::to_string(camera.format))
+    throw DataError(fmt::format("{}: the session was measured in {}, but the camera now records {}: set the camera "
+                                "back to {} in the rig file to resume (or start a new session)",
+                                session_dir, started, dev::to_string(camera.format), started));
+}
+
+ColourMap prepare_colour(const RigConfig& rig, dev::PixelFormat format, bool uncalibrated) {
+  ColourMap map;
+  map.pattern = dev::cfa_pattern(format);
+  if (map.pattern == dev::CfaPattern::None || uncalibrated) return map;  // camera RGB, as recorded
+  const fs::path dir = rig.calibration_dir;
+  const fs::path colour_file = dir / calib::kColourFile, scale_file = dir / calib::kScaleFile;
+  if (!fs::exists(colour_file))
+    throw DataError(fmt::format("{} is missing: the camera records {} (colour), and its RGB becomes linear sRGB through "
+                                "the colour calibration: run `paintlab calibrate colour --rig {} --capture` first (or "
+                                "measure with --uncalibrated for camera RGB)",
+                                colour_file.string(), dev::to_string(format), rig.file.string()));
+  if (!fs::exists(scale_file))
+    throw DataError(fmt::format("{} is missing: a colour camera is white-balanced on the white reference: run "
+                                "`paintlab calibrate scale --rig {}` first (or measure with --uncalibrated)",
+                                scale_file.string(), rig.file.string()));
+  const calib::ScaleCalibration scale = calib::ScaleCalibration::load(scale_file);
+  if (!scale.scale_rgb)
+    throw DataError(fmt::format("{}: no per-channel scale (scale_rgb): it was calibrated with a monochrome camera; run "
+                                "`paintlab calibrate scale --rig {}` again with the colour camera",
+                                scale_file.string(), rig.file.string()));
+  for (int c = 0; c < 3; ++c) map.balance[static_cast<std::size_t>(c)] = scale.scale / (*scale.scale_rgb)[static_cast<std::size_t>(c)];
+  auto colour = std::make_shared<const calib::ColourCalibration>(calib::ColourCalibration::load(colour_file));
+  if (colour->model == calib::ColourModel::Matrix) {
+    // M_bal = M diag(camera_white), then XYZ -> linear sRGB.
+    const Eigen::Matrix3d m = colour::xyz_to_srgb_matrix() * colour->matrix.leftCols<3>() *
+                              colour->camera_white.asDiagonal();
+    std::array<double, 9> rows{};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) rows[static_cast<std::size_t>(3 * i + j)] = m(i, j);
+    map.matrix = rows;
+  } else {
+    map.nonlinear = [colour](const std::array<double, 3>& b) {
+      const colour::Rgb s = colour->to_srgb_balanced(colour::Rgb(b[0], b[1], b[2]));
+      return std::array<double, 3>{s[0], s[1], s[2]};
+    };
+  }
+  map.colour_space = colour::kLinearSrgb;
+  return map;
 }
 
 SessionManifest make_manifest(const RigConfig& rig, const MeasureSetup& setup, const CameraPreparation& camera,
@@ -89,11 +136,20 @@ SessionManifest make_manifest(const RigConfig& rig, const MeasureSetup& setup, c
   m.devices = in.devices;
   m.options = in.options;
   m.options.pixel_format = dev::to_string(camera.format);
+  if (dev::cfa_pattern(camera.format) != dev::CfaPattern::None) {
+    m.options.colour_space = in.options.colour_space.empty() ? colour::kCameraRgb : in.options.colour_space;
+    m.options.demosaic = to_string(DemosaicMethod::Bilinear);
+  }
   return m;
 }
 
-BracketMerger::BracketMerger(HdrCalibration calibration, int bit_depth)
-    : calibration_(std::move(calibration)), bit_depth_(bit_depth) {}
+BracketMerger::BracketMerger(HdrCalibration calibration, int bit_depth, ColourMap colour)
+    : calibration_(std::move(calibration)), bit_depth_(bit_depth), colour_(std::move(colour)) {}
+
+std::shared_ptr<const ExrImage> BracketMerger::last_mosaic() const {
+  std::lock_guard lock(mutex_);
+  return last_mosaic_;
+}
 
 MergeFn BracketMerger::function() {
   return [this](const std::vector<dev::Frame>& frames) {
@@ -112,11 +168,22 @@ MergeFn BracketMerger::function() {
     HdrResult r = merger_->merge(stack);
     r.image.attributes["paintlab.valid_pixels"] = std::to_string(r.stats.valid);
     r.image.attributes["paintlab.saturated_pixels"] = std::to_string(r.stats.saturated);
-    return std::move(r.image);
+    if (colour_.pattern == dev::CfaPattern::None) return std::move(r.image);
+    ExrImage rgb = demosaic_to_colour(r.image, colour_);
+    rgb.attributes["paintlab.demosaic"] = to_string(DemosaicMethod::Bilinear);
+    auto mosaic = std::make_shared<ExrImage>();
+    mosaic->width = r.image.width;
+    mosaic->height = r.image.height;
+    mosaic->add("Y", std::move(*r.image.find("Y")));
+    mosaic->add("valid", std::move(*r.image.find("valid")));
+    std::lock_guard lock(mutex_);
+    last_mosaic_ = std::move(mosaic);
+    return rgb;
   };
 }
 
-std::unique_ptr<AdaptiveBracketing> make_adaptive_planner(const MeasureSetup& setup, const CameraPreparation& camera) {
+std::unique_ptr<AdaptiveBracketing> make_adaptive_planner(const MeasureSetup& setup, const CameraPreparation& camera,
+                                                          const BracketMerger* merger) {
   AdaptiveOptions o;
   const double full_scale = std::ldexp(1.0, dev::bit_depth(camera.format)) - 1.0;
   if (setup.hdr.response) {
@@ -132,7 +199,12 @@ std::unique_ptr<AdaptiveBracketing> make_adaptive_planner(const MeasureSetup& se
     o.linear_saturation = full_scale;
   }
   if (!(o.linear_floor >= 0)) o.linear_floor = 0.0;
-  return std::make_unique<AdaptiveBracketing>(o, setup.sphere_mask.value_or(Image<std::uint8_t>()));
+  auto planner = std::make_unique<AdaptiveBracketing>(o, setup.sphere_mask.value_or(Image<std::uint8_t>()));
+  if (dev::cfa_pattern(camera.format) != dev::CfaPattern::None) {
+    if (!merger) throw std::logic_error("make_adaptive_planner: a colour camera's planner needs its BracketMerger");
+    planner->predict_from([merger] { return merger->last_mosaic(); });
+  }
+  return planner;
 }
 
 }  // namespace paintlab::acq

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "paintlab/core/atomic_file.h"
+#include "paintlab/core/colour.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
 
@@ -20,6 +21,8 @@ constexpr const char* kJournalFile = "journal.jsonl";
 Json SessionOptions::to_json() const {
   Json j{{"keep_raw", keep_raw}, {"adaptive", adaptive}, {"uncalibrated", uncalibrated}};
   if (!pixel_format.empty()) j["pixel_format"] = pixel_format;
+  if (!colour_space.empty()) j["colour_space"] = colour_space;
+  if (!demosaic.empty()) j["demosaic"] = demosaic;
   if (!sim_paint.is_null()) j["sim_paint"] = sim_paint;
   return j;
 }
@@ -27,18 +30,23 @@ Json SessionOptions::to_json() const {
 SessionOptions SessionOptions::from_json(const Json& j, const std::string& where) {
   const std::string at = where + ": options";
   if (!j.is_object()) throw DataError(at + " is not an object");
-  static constexpr const char* kKeys[] = {"keep_raw", "adaptive", "uncalibrated", "pixel_format", "sim_paint"};
+  static constexpr const char* kKeys[] = {"keep_raw",    "adaptive",     "uncalibrated", "pixel_format",
+                                          "colour_space", "demosaic", "sim_paint"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (std::find(std::begin(kKeys), std::end(kKeys), it.key()) == std::end(kKeys))
       throw DataError(fmt::format("{}: unknown key '{}' (known: keep_raw, adaptive, uncalibrated, pixel_format, "
-                                  "sim_paint)",
+                                  "colour_space, demosaic, sim_paint)",
                                   at, it.key()));
   SessionOptions o;
   o.keep_raw = json_get_or<bool>(j, "keep_raw", false, at);
   o.adaptive = json_get_or<bool>(j, "adaptive", false, at);
   o.uncalibrated = json_get_or<bool>(j, "uncalibrated", false, at);
   o.pixel_format = json_get_or<std::string>(j, "pixel_format", "", at);
-  if (j.contains("sim_paint")) {
+  o.colour_space = json_get_or<std::string>(j, "colour_space", "", at);
+  o.demosaic = json_get_or<std::string>(j, "demosaic", "", at);
+  if (!o.colour_space.empty() && o.colour_space != colour::kLinearSrgb && o.colour_space != colour::kCameraRgb)
+    throw DataError(fmt::format("{}: colour_space '{}' is none of '{}', '{}'", at, o.colour_space,
+                                colour::kLinearSrgb, colour::kCameraRgb));  if (j.contains("sim_paint")) {
     o.sim_paint = j.at("sim_paint");
     if (!o.sim_paint.is_object() && !o.sim_paint.is_null()) throw DataError(at + ": sim_paint is not an object");
   }
@@ -62,9 +70,9 @@ Json SessionManifest::to_json() const {
 SessionManifest SessionManifest::from_json(const Json& j, const std::string& where) {
   SessionManifest m;
   m.format_version = json_get<int>(j, "format_version", where);
-  if (m.format_version != kSessionFormatVersion)
+  if (m.format_version < 1 || m.format_version > kSessionFormatVersion)
     throw DataError(where + ": session format version " + std::to_string(m.format_version) +
-                    " is not supported (this paintlab reads version " + std::to_string(kSessionFormatVersion) + ")");
+                    " is not supported (this paintlab reads versions 1 to " + std::to_string(kSessionFormatVersion) + ")");
   m.sample = json_get<std::string>(j, "sample", where);
   m.notes = json_get_or<std::string>(j, "notes", "", where);
   m.operator_name = json_get_or<std::string>(j, "operator", "", where);

@@ -102,6 +102,8 @@ int run_measure(const MeasureArgs& a) {
     throw UsageError("--sim-paint applies only to a simulated rig (devices of kind \"sim\")");
   }
   acq::CameraPreparation cam = acq::prepare_camera(*devices.camera, rig);
+  if (resume) acq::check_resume_camera(session->manifest(), cam, a.resume);
+  acq::ColourMap colour = acq::prepare_colour(rig, cam.format, uncalibrated);
 
   if (!resume) {
     acq::ManifestInput in;
@@ -114,6 +116,7 @@ int run_measure(const MeasureArgs& a) {
     in.options.keep_raw = a.keep_raw;
     in.options.adaptive = adaptive;
     in.options.uncalibrated = uncalibrated;
+    in.options.colour_space = colour.colour_space;
     if (devices.sim) in.options.sim_paint = sim_paint_json;
     acq::SessionManifest m = acq::make_manifest(rig, setup, cam, in);
     session.emplace(acq::SessionDir::create(a.out, std::move(m)));
@@ -122,12 +125,12 @@ int run_measure(const MeasureArgs& a) {
   acq::RunnerOptions ro;
   ro.keep_raw = resume ? session->manifest().options.keep_raw : a.keep_raw;
   ro.max_retries = a.max_retries;
-  acq::BracketMerger merge(setup.hdr, dev::bit_depth(cam.format));
+  acq::BracketMerger merge(setup.hdr, dev::bit_depth(cam.format), colour);
   acq::Runner runner(*session, {*devices.turntable, *devices.light, *devices.camera, *devices.clock},
                      merge.function());
   std::unique_ptr<acq::AdaptiveBracketing> planner;
   if (adaptive) {
-    planner = acq::make_adaptive_planner(setup, cam);
+    planner = acq::make_adaptive_planner(setup, cam, &merge);
     runner.set_planner(planner.get());
   }
   Progress progress("measure", session->position_count(), "pos");

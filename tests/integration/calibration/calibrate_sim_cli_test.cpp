@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 
+#include "paintlab/core/image_io.h"
 #include "paintlab/core/json.h"
 #include "sim_rigs.h"
 #include "test_util.h"
@@ -105,7 +106,7 @@ TEST(CalibrateSimCli, CalibrateAllThenCheckPassesAndAMovedSphereFails) {
 // its mosaics (the flat normalised per filter colour, the geometric steps on the luminance, the
 // boards demosaiced) and gives the same geometry; the measurement refuses the mosaic until the
 // colour merge is built.
-TEST(CalibrateSimCli, ABayerCameraCalibratesAndChecksAndTheMeasurementSaysItCannotYet) {
+TEST(CalibrateSimCli, ABayerCameraCalibratesChecksAndMeasuresInColour) {
   test::TempDir dir;
   const fs::path calib = dir / "calib";
   test::write_text(dir / "rig.toml",
@@ -145,7 +146,26 @@ TEST(CalibrateSimCli, ABayerCameraCalibratesAndChecksAndTheMeasurementSaysItCann
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_THAT(r.out, ::testing::HasSubstr("RIG OK"));
   EXPECT_THAT(r.out, ::testing::HasSubstr("colour.mean_de00"));
-  r = test::run_paintlab("measure --rig " + rig + " --sample blue --out " + (dir / "session").string(), 120);
-  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
-  EXPECT_THAT(r.err, ::testing::HasSubstr("the camera records BayerRG16 (a colour mosaic)"));
+  // The measurement in colour: the mosaic merged, demosaiced, white-balanced on the white
+  // reference and mapped to linear sRGB; the fit then recovers the blue paint's RGB.
+  const fs::path session = dir / "session";
+  r = test::run_paintlab("measure --rig " + rig + " --sample blue --out " + session.string() + " --sim-paint " +
+                             (test::source_dir() / "paints/solid-blue.toml").string(),
+                         120);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const Json options = read_json_file(session / "session.json")["options"];
+  EXPECT_EQ(options["pixel_format"], "BayerRG16");
+  EXPECT_EQ(options["colour_space"], "linear sRGB (D65)");
+  EXPECT_EQ(options["demosaic"], "bilinear");
+  const ExrImage first = read_exr(session / "hdr/pos_000.exr");
+  EXPECT_EQ(first.find("Y"), nullptr);
+  EXPECT_EQ(first.attributes.at("paintlab.colour_space"), "linear sRGB (D65)");
+  r = test::run_paintlab("fit " + session.string() + " --model cook-torrance --lobes 2 --out " +
+                             (dir / "fit.json").string(),
+                         120);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  std::printf("%s", r.out.c_str());
+  const Json kd = read_json_file(dir / "fit.json")["kd"];
+  const double truth[3] = {0.030, 0.060, 0.300};
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(kd[c].get<double>(), truth[c], 0.03 * truth[c]) << "channel " << c;
 }

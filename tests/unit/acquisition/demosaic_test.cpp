@@ -157,6 +157,55 @@ TEST(DemosaicMerged, VarianceFollowsTheWeightsAndAnInvalidSiteInvalidatesItsNeig
   EXPECT_EQ(rgb.plane("valid").at(2, 2), 1.0f);
   EXPECT_EQ(rgb.plane("valid").at(6, 4), 1.0f);  // the next R site uses only itself for R
   EXPECT_FALSE(std::isinf(rgb.plane("var.G").at(4, 3)));
+  // A green site keeps its own green (not smoothed with its diagonal greens): a single-pixel
+  // glint stays one pixel in green.
+  ExrImage spot = merged_mosaic_of(8, 8, p, [](int x, int y, int) { return x == 3 && y == 2 ? 900.0 : 100.0; }, 4.0);
+  const ExrImage g = demosaic_merged(spot, p);
+  EXPECT_FLOAT_EQ(g.plane("G").at(3, 2), 900.0f);
+  EXPECT_FLOAT_EQ(g.plane("var.G").at(3, 2), 4.0f);
+  EXPECT_FLOAT_EQ(g.plane("G").at(4, 3), 100.0f);  // its diagonal green neighbour is untouched
+}
+
+TEST(DemosaicToColour, TheColourMapMixesTheBalancedChannelsAndCarriesTheVariance) {
+  const CfaPattern p = CfaPattern::GB;
+  ExrImage m = merged_mosaic_of(10, 8, p, [](int, int, int c) { return c == 0 ? 200.0 : c == 1 ? 400.0 : 100.0; }, 4.0);
+  acq::ColourMap map;
+  map.pattern = p;
+  map.balance = {2.0, 1.0, 4.0};  // camera (200, 400, 100) balanced to (400, 400, 400): grey
+  map.matrix = std::array<double, 9>{0.9, 0.2, -0.1, 0.0, 1.0, 0.0, -0.05, 0.1, 0.95};
+  map.colour_space = colour::kLinearSrgb;
+  const ExrImage out = acq::demosaic_to_colour(m, map);
+  EXPECT_EQ(out.attributes.at("paintlab.colour_space"), "linear sRGB (D65)");
+  EXPECT_EQ(out.attributes.at("paintlab.cfa"), "GB");
+  EXPECT_EQ(out.find("Y"), nullptr);
+  for (auto [x, y] : {std::pair{0, 0}, std::pair{4, 4}, std::pair{5, 3}, std::pair{9, 7}}) {
+    SCOPED_TRACE(::testing::Message() << x << "," << y);
+    EXPECT_NEAR(out.plane("R").at(x, y), 400.0, 1e-3);  // each row of the matrix sums to 1
+    EXPECT_NEAR(out.plane("G").at(x, y), 400.0, 1e-3);
+    EXPECT_NEAR(out.plane("B").at(x, y), 400.0, 1e-3);
+  }
+  // The variance at an interior red site of GB (G B / R G: x even, y odd): R its own (4), G the
+  // mean of 4 (1), B the mean of 4 diagonals (1); balanced by 4, 1, 16; mixed by M^2.
+  const double vr = 4 * 4, vg = 1 * 1, vb = 1 * 16;
+  EXPECT_NEAR(out.plane("var.R").at(4, 3), 0.81 * vr + 0.04 * vg + 0.01 * vb, 1e-3);
+  EXPECT_NEAR(out.plane("var.G").at(4, 3), vg, 1e-4);
+  EXPECT_NEAR(out.plane("var.B").at(4, 3), 0.0025 * vr + 0.01 * vg + 0.9025 * vb, 1e-3);
+  // One invalid site spoils every output channel that mixes its colour in.
+  m.find("valid")->at(4, 3) = 0.0f;
+  const ExrImage bad = acq::demosaic_to_colour(m, map);
+  EXPECT_EQ(bad.plane("valid").at(4, 3), 0.0f);
+  EXPECT_TRUE(std::isinf(bad.plane("var.R").at(4, 3)));
+  EXPECT_FALSE(std::isinf(bad.plane("var.G").at(4, 3)));  // the G row takes no red
+  EXPECT_TRUE(std::isinf(bad.plane("var.B").at(4, 3)));
+  // A non-linear map: the same values through a function, the variance through its Jacobian.
+  acq::ColourMap square = map;
+  square.matrix.reset();
+  square.nonlinear = [](const std::array<double, 3>& b) { return std::array<double, 3>{b[0] * b[0] / 400.0, b[1], b[2]}; };
+  m.find("valid")->at(4, 3) = 1.0f;
+  const ExrImage nl = acq::demosaic_to_colour(m, square);
+  EXPECT_NEAR(nl.plane("R").at(4, 3), 400.0, 1e-3);
+  EXPECT_NEAR(nl.plane("var.R").at(4, 3), 4.0 * vr, 0.01 * 4.0 * vr);  // d(b^2/400)/db = 2 at b = 400
+  EXPECT_THROW(acq::demosaic_to_colour(m, acq::ColourMap{}), DataError);  // no pattern
 }
 
 TEST(DemosaicMerged, LuminanceOfAMosaicIsAQuarterRedHalfGreenAQuarterBlue) {

@@ -8,7 +8,9 @@
 #include <gtest/gtest.h>
 
 #include "fake_rig.h"
+#include "paintlab/calibration/colour.h"
 #include "paintlab/calibration/record.h"
+#include "paintlab/calibration/scale.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
 #include "sim_rigs.h"
@@ -136,4 +138,105 @@ TEST(Measurement, BracketMergerMergesEveryBracketWithOneMerger) {
   EXPECT_NEAR(a.planes.front().values()[0], 1e5, 1e5 * 1e-3);  // 1000 DN in 10 ms, 2000 DN in 20 ms
   EXPECT_EQ(a.planes.front().values()[0], b.planes.front().values()[0]);
   EXPECT_THROW(fn({}), DataError);
+}
+
+TEST(Measurement, AColourCameraNeedsItsColourAndPerChannelScaleUnlessUncalibrated) {
+  test::TempDir tmp;
+  const RigConfig rig = write_rig(tmp);
+  // A monochrome camera: nothing to do.
+  EXPECT_EQ(acq::prepare_colour(rig, dev::PixelFormat::Mono16, false).pattern, dev::CfaPattern::None);
+  // Uncalibrated: camera RGB as recorded.
+  const acq::ColourMap raw = acq::prepare_colour(rig, dev::PixelFormat::BayerGR12, true);
+  EXPECT_EQ(raw.pattern, dev::CfaPattern::GR);
+  EXPECT_EQ(raw.colour_space, "linear camera RGB");
+  EXPECT_FALSE(raw.matrix);
+  fs::create_directories(rig.calibration_dir);
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::prepare_colour(rig, dev::PixelFormat::BayerRG16, false); }),
+              ::testing::AllOf(HasSubstr("colour.json is missing"), HasSubstr("BayerRG16"),
+                               HasSubstr("paintlab calibrate colour --rig")));
+  // A colour calibration: camera white (2, 1, 1.5), XYZ = M rgb with M = sRGB->XYZ diag(1/white).
+  calib::ColourCalibration cc;
+  cc.camera_white = colour::Rgb(2.0, 1.0, 1.5);
+  cc.matrix = colour::srgb_to_xyz_matrix() * cc.camera_white.cwiseInverse().asDiagonal();
+  cc.save(rig.calibration_dir / calib::kColourFile);
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::prepare_colour(rig, dev::PixelFormat::BayerRG16, false); }),
+              ::testing::AllOf(HasSubstr("scale.json is missing"), HasSubstr("calibrate scale")));
+  calib::ScaleCalibration sc;
+  sc.scale = 10.0;
+  sc.save(rig.calibration_dir / calib::kScaleFile);
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::prepare_colour(rig, dev::PixelFormat::BayerRG16, false); }),
+              HasSubstr("no per-channel scale (scale_rgb)"));
+  sc.scale_rgb = std::array<double, 3>{20.0, 10.0, 15.0};
+  sc.save(rig.calibration_dir / calib::kScaleFile);
+  const acq::ColourMap map = acq::prepare_colour(rig, dev::PixelFormat::BayerRG16, false);
+  EXPECT_EQ(map.colour_space, "linear sRGB (D65)");
+  EXPECT_DOUBLE_EQ(map.balance[0], 0.5);
+  EXPECT_DOUBLE_EQ(map.balance[2], 10.0 / 15.0);
+  // The white reference's camera value (proportional to scale_rgb) comes out grey at the
+  // luminance scale's level: (20, 10, 15) x k -> (10, 10, 10) x k.
+  const std::array<double, 3> white = map.apply({40.0, 20.0, 30.0});
+  for (double v : white) EXPECT_NEAR(v, 20.0, 1e-3);
+  // A colour: sRGB (0.2, 0.5, 0.1) seen by this camera is (2 x 0.2, 0.5, 1.5 x 0.1) (its white
+  // times the colour) and comes back as itself, the white reference's ratios being the chart's.
+  const std::array<double, 3> c = map.apply({2.0 * 0.2, 1.0 * 0.5, 1.5 * 0.1});
+  EXPECT_NEAR(c[0], 0.2, 1e-9);
+  EXPECT_NEAR(c[1], 0.5, 1e-9);
+  EXPECT_NEAR(c[2], 0.1, 1e-3);
+}
+
+TEST(Measurement, AColourBracketIsMergedAsAMosaicAndStoredAsRgbAndTheResumeKeepsTheFormat) {
+  acq::ColourMap map;
+  map.pattern = dev::CfaPattern::RG;
+  map.balance = {2.0, 1.0, 4.0};
+  acq::BracketMerger merge(acq::HdrCalibration{}, 16, map);
+  EXPECT_EQ(merge.last_mosaic(), nullptr);
+  std::vector<dev::Frame> frames(1);
+  frames[0].pixels = Image<std::uint16_t>(8, 6, 1);
+  for (int y = 0; y < 6; ++y)
+    for (int x = 0; x < 8; ++x)  // R 500, G 1000, B 250 DN in 10 ms
+      frames[0].pixels.at(x, y) = static_cast<std::uint16_t>(dev::cfa_colour(dev::CfaPattern::RG, x, y) == 0   ? 500
+                                                             : dev::cfa_colour(dev::CfaPattern::RG, x, y) == 1 ? 1000
+                                                                                                               : 250);
+  frames[0].meta.exposure_s = 0.01;
+  const ExrImage rgb = merge.function()(frames);
+  EXPECT_EQ(rgb.find("Y"), nullptr);
+  EXPECT_EQ(rgb.attributes.at("paintlab.demosaic"), "bilinear");
+  EXPECT_EQ(rgb.attributes.at("paintlab.valid_pixels"), "48");
+  for (const char* c : {"R", "G", "B"}) EXPECT_NEAR(rgb.plane(c).at(3, 3), 1e5, 1e5 * 1e-3) << c;
+  const auto mosaic = merge.last_mosaic();
+  ASSERT_NE(mosaic, nullptr);
+  EXPECT_NEAR(mosaic->plane("Y").at(0, 0), 5e4, 50);  // an R site, before demosaicing
+  EXPECT_NE(mosaic->find("valid"), nullptr);
+
+  acq::SessionManifest m;
+  m.options.pixel_format = "BayerRG12";
+  acq::CameraPreparation cam;
+  cam.format = dev::PixelFormat::BayerRG12;
+  EXPECT_NO_THROW(acq::check_resume_camera(m, cam, "s"));
+  cam.format = dev::PixelFormat::Mono12;
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::check_resume_camera(m, cam, "s"); }),
+              ::testing::AllOf(HasSubstr("s: the session was measured in BayerRG12, but the camera now records Mono12")));
+}
+
+TEST(Measurement, SessionsOfVersionOneStillReadAndAColourSpaceIsChecked) {
+  acq::SessionManifest m;
+  m.sample = "old";
+  m.angles_deg = {0.0, 10.0};
+  m.exposures_s = {0.01};
+  Json j = m.to_json();
+  EXPECT_EQ(j["format_version"], 2);
+  j["format_version"] = 1;
+  EXPECT_EQ(acq::SessionManifest::from_json(j, "s/session.json").sample, "old");
+  j["format_version"] = 3;
+  EXPECT_THAT(test::error_message<DataError>([&] { acq::SessionManifest::from_json(j, "s/session.json"); }),
+              HasSubstr("reads versions 1 to 2"));
+  acq::SessionOptions o;
+  o.colour_space = colour::kLinearSrgb;
+  o.demosaic = "bilinear";
+  const acq::SessionOptions back = acq::SessionOptions::from_json(o.to_json(), "s");
+  EXPECT_EQ(back.colour_space, "linear sRGB (D65)");
+  EXPECT_EQ(back.demosaic, "bilinear");
+  EXPECT_THAT(test::error_message<DataError>(
+                  [&] { acq::SessionOptions::from_json(Json{{"colour_space", "sRGB"}}, "s/session.json"); }),
+              HasSubstr("colour_space 'sRGB' is none of"));
 }

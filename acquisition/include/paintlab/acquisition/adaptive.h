@@ -16,6 +16,8 @@
 // moves by a small step) and each pixel is planned for E / margin, E and E x margin; the
 // first position, and any after a foreign image, uses the full bracket.
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <vector>
 
 #include "paintlab/acquisition/runner.h"
@@ -48,6 +50,9 @@ class AdaptiveBracketing final : public ExposurePlanner {
   // mask: 1 = sphere pixel (same size as the merged images); empty = every pixel counts.
   AdaptiveBracketing(AdaptiveOptions options, Image<std::uint8_t> mask);
   std::vector<double> choose(const std::vector<double>& bracket_s, const ExrImage* previous) override;
+  // Where the radiance comes from instead of `previous` (when there is one): a colour camera's
+  // merged mosaic, whose every site is planned as the pixel it is (BracketMerger::last_mosaic).
+  void predict_from(std::function<std::shared_ptr<const ExrImage>()> source) { source_ = std::move(source); }
   // Largest information share a pixel lost in the last choose() (0 when nothing was dropped).
   double last_worst_loss() const { return last_worst_loss_; }
 
@@ -55,6 +60,7 @@ class AdaptiveBracketing final : public ExposurePlanner {
   AdaptiveOptions options_;
   Image<std::uint8_t> mask_;
   double last_worst_loss_ = 0.0;
+  std::function<std::shared_ptr<const ExrImage>()> source_;
 };
 
 }  // namespace paintlab::acq

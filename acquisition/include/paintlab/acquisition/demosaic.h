@@ -8,9 +8,11 @@
 // GenICam's name (dev::CfaPattern, what the camera reports) and translates.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 
+#include "paintlab/core/colour.h"
 #include "paintlab/core/image.h"
 #include "paintlab/core/image_io.h"
 #include "paintlab/devices/camera.h"
@@ -34,13 +36,33 @@ Image<std::uint16_t> demosaic(const Image<std::uint16_t>& mosaic, dev::CfaPatter
 // A merged radiance mosaic as camera RGB: the HDR merge of a Bayer bracket is one plane per
 // pixel (channels Y, var.Y, valid; each pixel the radiance of its filter's colour), this gives
 // R, G, B, var.R, var.G, var.B, valid. Bilinear, written out rather than OpenCV's because the
-// merge's variance and validity have to follow: colour c at a pixel is the weighted mean of the
-// sites of colour c in its 3x3 neighbourhood, weights (2 - |dx|)(2 - |dy|) (so a site keeps its
-// own value, a green between two reds takes their mean, a red among four diagonal blues the
-// mean of the four: cv::demosaicing's bilinear kernel), the variance is sum w^2 var, and the
-// value is valid only where every site it used is. Other planes (attributes) are carried over.
+// merge's variance and validity have to follow: a site keeps its own colour's value; another
+// colour c is the weighted mean of the sites of colour c in its 3x3 neighbourhood, weights
+// (2 - |dx|)(2 - |dy|) (a green between two reds takes their mean, a red among four diagonal
+// blues the mean of the four, a green at a red site the mean of its four green neighbours:
+// cv::demosaicing's bilinear kernel); the variance is sum w^2 var / (sum w)^2, and the value is
+// valid only where every site it used is. Attributes are carried over.
 // DataError for a mosaic without Y, var.Y and valid, or pattern None.
 ExrImage demosaic_merged(const ExrImage& mosaic, dev::CfaPattern pattern);
+
+// What a colour session stores of the camera's RGB: out = M (balance .* camera), with the
+// variance carried through (sum_j M_ij^2 balance_j^2 var_j; the demosaiced channels of one
+// pixel come from different sites and are independent). `matrix` unset: out = balance .*
+// camera (camera RGB). A non-linear map (the colour calibration's root polynomials) is given
+// as `nonlinear`, evaluated per pixel with its variance through the map's Jacobian.
+struct ColourMap {
+  dev::CfaPattern pattern = dev::CfaPattern::None;
+  std::array<double, 3> balance{1.0, 1.0, 1.0};
+  std::optional<std::array<double, 9>> matrix{};  // row-major
+  std::function<std::array<double, 3>(const std::array<double, 3>&)> nonlinear{};
+  std::string colour_space = colour::kCameraRgb;  // what the output values are
+  std::array<double, 3> apply(const std::array<double, 3>& camera) const;
+};
+
+// demosaic_merged and the colour map in one pass over the image (rows in parallel): the
+// merged mosaic of a Bayer bracket to the R, G, B (with var.* and valid) a session stores,
+// attribute paintlab.colour_space set.
+ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map);
 
 // The same bilinear interpolation for a linear mosaic without variance (a linearised frame):
 // three channels, camera RGB.

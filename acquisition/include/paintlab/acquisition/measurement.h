@@ -9,6 +9,7 @@
 #include <string>
 
 #include "paintlab/acquisition/adaptive.h"
+#include "paintlab/acquisition/demosaic.h"
 #include "paintlab/acquisition/hdr_merge.h"
 #include "paintlab/acquisition/runner.h"
 #include "paintlab/acquisition/session.h"
@@ -40,6 +41,19 @@ struct CameraPreparation {
 // Sets the plan's gain and checks that every exposure of the plan is within the camera's
 // range (DataError naming the exposure, the range and the camera) before anything is written.
 CameraPreparation prepare_camera(dev::Camera& camera, const RigConfig& rig);
+// A resumed session goes on with the pixel format it started with (a colour session does not
+// take monochrome frames, nor a 12-bit one 8-bit frames): DataError naming both and `session_dir`.
+void check_resume_camera(const SessionManifest& session, const CameraPreparation& camera,
+                         const std::string& session_dir);
+
+// What a colour camera's session stores (docs/colour.md "Measuring in colour"): the merged
+// mosaic demosaiced (bilinear, with its variance), white-balanced on the white reference
+// (camera channel c times scale / scale_rgb[c] of calib/scale.json, so that the white
+// reference is grey and one scale still turns radiance into BRDF) and mapped to linear sRGB
+// (D65) by calib/colour.json. `uncalibrated`: camera RGB as it is. DataError for a colour camera
+// without colour.json or without a per-channel scale.json, naming the `paintlab calibrate`
+// step that makes it. A monochrome format gives pattern None (nothing to do).
+ColourMap prepare_colour(const RigConfig& rig, dev::PixelFormat format, bool uncalibrated);
 
 // What a new session records (session.json): the sample and the people's notes, the rig
 // and its plan, the applied gain, the calibration checksums, the devices and the options.
@@ -55,22 +69,31 @@ SessionManifest make_manifest(const RigConfig& rig, const MeasureSetup& setup, c
 
 // The runner's merge function: an HdrMerger built on the first bracket's geometry and shared
 // by every later bracket; each merged image carries its valid and saturated pixel counts as
-// attributes.
+// attributes. A colour camera's bracket (colour.pattern set) is merged as a mosaic and then
+// turned into R, G, B by demosaic_to_colour; the last merged mosaic is kept for the planner.
 class BracketMerger {
  public:
-  BracketMerger(HdrCalibration calibration, int bit_depth);
+  BracketMerger(HdrCalibration calibration, int bit_depth, ColourMap colour = {});
   MergeFn function();
   const HdrMerger* merger() const { return merger_.get(); }
+  // The radiance mosaic of the last merged bracket (Y, valid), before demosaicing; null for a
+  // monochrome camera or before the first bracket.
+  std::shared_ptr<const ExrImage> last_mosaic() const;
 
  private:
   HdrCalibration calibration_;
   int bit_depth_;
-  std::mutex mutex_;
+  ColourMap colour_;
+  mutable std::mutex mutex_;
   std::unique_ptr<HdrMerger> merger_;
+  std::shared_ptr<const ExrImage> last_mosaic_;
 };
 
 // The adaptive-bracketing planner for the camera and calibration of a measurement: the
-// response's floor and saturation in linear units and its noise model.
-std::unique_ptr<AdaptiveBracketing> make_adaptive_planner(const MeasureSetup& setup, const CameraPreparation& camera);
+// response's floor and saturation in linear units and its noise model. A colour camera's
+// planner predicts from `merger`'s last mosaic: every site planned as the pixel it is, so each
+// colour channel keeps the exposures it needs (required then).
+std::unique_ptr<AdaptiveBracketing> make_adaptive_planner(const MeasureSetup& setup, const CameraPreparation& camera,
+                                                          const BracketMerger* merger = nullptr);
 
 }  // namespace paintlab::acq

@@ -16,7 +16,9 @@
 
 namespace paintlab::acq {
 
-inline constexpr int kSessionFormatVersion = 1;
+// Version 2 adds options.colour_space and options.demosaic (colour cameras); version 1
+// sessions (monochrome) still read.
+inline constexpr int kSessionFormatVersion = 2;
 
 // How a session is measured (session.json "options"): what `paintlab measure --resume` keeps.
 // Reading refuses a key it does not know and a value of the wrong type, naming both, so that a
@@ -26,6 +28,11 @@ struct SessionOptions {
   bool adaptive = false;      // adaptive bracketing (exposures chosen per position)
   bool uncalibrated = false;  // measured without response/dark: the HDR values are raw DN/s
   std::string pixel_format;   // the camera's ("Mono16", ...); empty when not recorded
+  // A colour camera's: what the R, G, B of hdr/*.exr are (colour::kLinearSrgb after the
+  // colour calibration, colour::kCameraRgb when --uncalibrated) and how the mosaic was
+  // demosaiced; empty for a monochrome camera (the images hold Y).
+  std::string colour_space;
+  std::string demosaic;
   Json sim_paint;             // simulated rigs: the paint the simulator showed (paint JSON); null otherwise
 
   Json to_json() const;

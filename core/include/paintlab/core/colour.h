@@ -17,6 +17,11 @@
 
 namespace paintlab::colour {
 
+// What the radiance values of an image, a session or a paint file are, as their files state
+// it (session.json, EXR attribute paintlab.colour_space, the AxF-like /conventions).
+inline constexpr const char* kCameraRgb = "linear camera RGB";  // the camera's own channels
+inline constexpr const char* kLinearSrgb = "linear sRGB (D65)";  // after the colour calibration
+
 using Xyz = Eigen::Vector3d;  // X, Y, Z with Y = 1 for the perfect white diffuser
 using Rgb = Eigen::Vector3d;  // linear values (sRGB or a camera's), not gamma-encoded
 
