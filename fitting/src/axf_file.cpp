@@ -98,7 +98,8 @@ void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const
   {
     const std::string gp = h5::join(rp, "conventions");
     Handle g = w.create_group(root, "conventions", gp);
-    for (const auto& [k, v] : kConventions) w.attr_string(g.get(), k, v, gp);
+    for (const auto& [k, v] : kConventions)
+      w.attr_string(g.get(), k, k == "values" ? axf_values_convention(paint.colour_space) : v, gp);
   }
 
   if (paint.carpaint) {
@@ -310,16 +311,30 @@ std::optional<DoubleArray> read_lobe_count_dataset(hid_t g, const std::string& n
   return a;
 }
 
-void check_conventions(hid_t root, const std::string& rp, const Problems& p) {
+// Checks /conventions against the format's (`version`: as the file states it) and returns the
+// colour space its "values" states.
+std::string check_conventions(hid_t root, const std::string& rp, std::optional<std::int64_t> version,
+                              const Problems& p) {
+  std::string colour_space = colour::kCameraRgb;
   const std::string gp = h5::join(rp, "conventions");
   Handle g = h5::open_group(root, "conventions", gp, p);
-  if (!g) return;
+  if (!g) return colour_space;
+  const bool v3 = version && *version >= 3;
   for (const auto& [k, v] : kConventions) {
     auto s = h5::read_attr_string(g.get(), k, gp, p);
-    if (s && *s != v)
-      p.add(h5::attr_path(gp, k), "states a different convention than the format (versions 1 and 2) defines (\"" +
+    if (!s) continue;
+    if (k == "values" && v3) {
+      if (*s == axf_values_convention(colour::kLinearSrgb)) colour_space = colour::kLinearSrgb;
+      else if (*s != axf_values_convention(colour::kCameraRgb))
+        p.add(h5::attr_path(gp, k), "states a colour space the format (version 3) does not define (\"" + *s +
+                                        "\"); expected \"" + axf_values_convention(colour::kLinearSrgb) + "\" or \"" +
+                                        axf_values_convention(colour::kCameraRgb) + "\"");
+    } else if (*s != v) {
+      p.add(h5::attr_path(gp, k), "states a different convention than the format (versions 1 to 3) defines (\"" +
                                       *s + "\"); expected \"" + v + "\"");
+    }
   }
+  return colour_space;
 }
 
 // A section (group) of a paint that a reader checks: opened (a problem when it is missing;
@@ -639,7 +654,7 @@ AxfPaint read_paint(hid_t root, const std::string& rp, const Problems& problems,
     if (*m != "axf-carpaint" && *m != "cook-torrance")
       p.add(h5::attr_path(rp, "model"), "'" + *m + "' is not 'axf-carpaint' or 'cook-torrance'");
   }
-  check_conventions(root, rp, p);
+  paint.colour_space = check_conventions(root, rp, version, p);
   const bool need_carpaint = paint.model == "axf-carpaint";
   const bool need_ct = paint.model == "cook-torrance";
   auto present = [&](const char* name) { return h5::exists(root, name, h5::join(rp, name), p); };
@@ -707,6 +722,10 @@ AxfPaint with_defaults(AxfPaint paint) {
 
 const std::vector<std::pair<std::string, std::string>>& axf_conventions() { return kConventions; }
 
+std::string axf_values_convention(const std::string& colour_space) {
+  return colour_space + ": no gamma, no sRGB transfer curve, no tone mapping";
+}
+
 bool AxfCookTorrance::operator==(const AxfCookTorrance& o) const {
   if (!(params == o.params) || stddev.has_value() != o.stddev.has_value()) return false;
   if (!stddev) return true;
@@ -744,6 +763,7 @@ AxfPaint axf_from_paint(const brdf::PaintSpec& spec) {
                     " paints have no AxF-like form (only cook-torrance and axf-carpaint): measure and fit it");
   }
   a.flakes = spec.flakes;
+  a.colour_space = colour::kLinearSrgb;
   if (!spec.source.empty()) a.provenance.source = spec.source.string();
   return a;
 }
@@ -753,6 +773,14 @@ AxfPaint axf_from_fit_json(const Json& fit, const std::string& where) {
   const brdf::PaintSpec spec = brdf::paint_from_json(fit, where);
   AxfPaint a = axf_from_paint(spec);
   a.provenance.source = where;
+  a.colour_space = colour::kCameraRgb;
+  if (fit.contains("input") && fit["input"].is_object() && fit["input"].contains("colour_space")) {
+    const Json& cs = fit["input"]["colour_space"];
+    if (!cs.is_string() || (cs != colour::kLinearSrgb && cs != colour::kCameraRgb))
+      throw DataError(fmt::format("{}: input.colour_space must be \"{}\" or \"{}\"", where, colour::kLinearSrgb,
+                                  colour::kCameraRgb));
+    a.colour_space = cs.get<std::string>();
+  }
   // A standard deviation the fit could not determine is null in fit.json (a lobe without
   // weight, a failed covariance, a fit stopped before converging); the file holds all of
   // them or none, so such a fit's are left out (with a warning), the fit itself is read.
@@ -820,6 +848,9 @@ AxfPaint axf_from_fit_json(const Json& fit, const std::string& where) {
 }
 
 AxfPaint merge_axf(AxfPaint base, const AxfPaint& other) {
+  if (base.colour_space != other.colour_space)
+    throw DataError(fmt::format("the paints are in different colour spaces ({} and {}): they are not one measurement",
+                                base.colour_space, other.colour_space));
   if (other.carpaint) {
     if (base.carpaint) throw DataError("both paints hold an AxF car-paint form: give one fit per model");
     base.carpaint = other.carpaint;
@@ -987,7 +1018,7 @@ AxfValidation validate_axf_file(const fs::path& path) {
 }
 
 std::string describe_axf(const AxfPaint& a) {
-  std::string s = fmt::format("paint '{}' (model {})\n", a.name, a.model);
+  std::string s = fmt::format("paint '{}' (model {}), values in {}\n", a.name, a.model, a.colour_space);
   if (a.carpaint) {
     const auto& c = *a.carpaint;
     s += fmt::format("  carpaint: clear-coat ior {:.4g}, diffuse {:.4g}, colour table {} x {} (scale {:.4g})\n", c.ior,

@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include "paintlab/acquisition/session_reader.h"
+#include "paintlab/core/colour.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/coverage.h"
 #include "paintlab/core/version.h"
@@ -36,6 +37,9 @@ BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOption
   out.input = {{"kind", "session"},
                {"path", fs::absolute(session.dir()).lexically_normal().string()},
                {"sample", session.manifest().sample},
+               {"colour_space", session.manifest().options.colour_space.empty()
+                                    ? colour::kCameraRgb
+                                    : session.manifest().options.colour_space},
                {"positions", frames.size()},
                {"session_sha256", acq::session_sha256(session.dir())},
                {"extraction", out.stats.to_json()},

@@ -233,6 +233,33 @@ TEST(AxfFile, CookTorranceOnlyPaintExportsWithoutCarpaint) {
   EXPECT_TRUE(validate_axf_file(tmp / "ct.axf.h5").ok());
 }
 
+TEST(AxfFile, TheColourSpaceOfTheValuesIsStatedAndReadBack) {
+  test::TempDir tmp;
+  // A paint file's values are linear sRGB; a fit's are its session's (camera RGB when unsaid).
+  brdf::PaintSpec spec;
+  spec.name = "blue";
+  spec.params = sample_ct(false).params;
+  const AxfPaint from_paint = axf_from_paint(spec);
+  EXPECT_EQ(from_paint.colour_space, "linear sRGB (D65)");
+  write_axf_file(tmp / "srgb.axf.h5", from_paint);
+  EXPECT_EQ(read_axf_file(tmp / "srgb.axf.h5").colour_space, "linear sRGB (D65)");
+  EXPECT_THAT(describe_axf(read_axf_file(tmp / "srgb.axf.h5")), HasSubstr("values in linear sRGB (D65)"));
+  Json fit = brdf::to_json(from_paint.paint_spec());
+  EXPECT_EQ(axf_from_fit_json(fit, "fit.json").colour_space, "linear camera RGB");
+  fit["input"] = {{"kind", "session"}, {"colour_space", "linear sRGB (D65)"}};
+  EXPECT_EQ(axf_from_fit_json(fit, "fit.json").colour_space, "linear sRGB (D65)");
+  fit["input"]["colour_space"] = "Adobe RGB";
+  EXPECT_THAT(test::error_message<DataError>([&] { axf_from_fit_json(fit, "fit.json"); }),
+              HasSubstr("fit.json: input.colour_space must be"));
+  // A camera-RGB paint and an sRGB one are not one measurement.
+  AxfPaint camera = from_paint;
+  camera.colour_space = colour::kCameraRgb;
+  camera.cook_torrance.reset();
+  camera.carpaint = full_paint().carpaint;
+  EXPECT_THAT(test::error_message<DataError>([&] { merge_axf(from_paint, camera); }),
+              HasSubstr("different colour spaces"));
+}
+
 TEST(AxfFile, ConventionsAreWrittenAndStateTheTraps) {
   const auto& c = axf_conventions();
   auto text = [&](const std::string& key) {
@@ -340,8 +367,16 @@ TEST(AxfFile, ValidatorNamesTheFieldOfEveryDamage) {
          H5Gclose(g);
        },
        "/conventions attribute 'colour_table_domain': missing"},
-      {"newer version", [](hid_t f) { set_int_attr(f, "/", "format_version", 3); },
-       "/ attribute 'format_version': 3 is newer than this software reads (2)"},
+      {"newer version", [](hid_t f) { set_int_attr(f, "/", "format_version", 4); },
+       "/ attribute 'format_version': 4 is newer than this software reads (3)"},
+      {"unknown colour space", [](hid_t f) { set_string_attr(f, "/conventions", "values", "linear Adobe RGB: no gamma"); },
+       "/conventions attribute 'values': states a colour space the format (version 3) does not define"},
+      {"sRGB in a version-2 file",
+       [](hid_t f) {
+         set_int_attr(f, "/", "format_version", 2);
+         set_string_attr(f, "/conventions", "values", axf_values_convention(colour::kLinearSrgb));
+       },
+       "/conventions attribute 'values': states a different convention than the format (versions 1 to 3) defines"},
       {"foreign format", [](hid_t f) { set_string_attr(f, "/", "format", "something-else"); },
        "/ attribute 'format': 'something-else' is not 'paintlab-axf-like'"},
       {"bad model", [](hid_t f) { set_string_attr(f, "/", "model", "phong"); }, "/ attribute 'model': 'phong'"},
@@ -507,7 +542,7 @@ TEST(AxfCli, ValidateExitCodesAndMessages) {
   write_axf_file(good, full_paint());
   auto r = test::run_paintlab("axf validate " + good.string());
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 2)"));
+  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 3)"));
 
   const fs::path bad = tmp / "bad.axf.h5";
   fs::copy_file(good, bad);

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "paintlab/brdf/paint.h"
+#include "paintlab/core/colour.h"
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/ct_fit.h"
 
@@ -26,8 +27,11 @@ namespace paintlab::fit {
 inline constexpr const char* kAxfFormat = "paintlab-axf-like";
 // The version written. Version 2 (issue 13) adds checksums: HDF5's checksummed metadata,
 // Fletcher-32 on every array, fixed-length strings and the SHA-256 of the content
-// (attribute content_sha256). Files of version 1 (no checksums) are still read.
-inline constexpr int kAxfFormatVersion = 2;
+// (attribute content_sha256). Version 3 (issue 14) states the colour space of the values in
+// /conventions "values": "linear sRGB (D65)" (a colour measurement, a paint file) or "linear
+// camera RGB" (a monochrome or uncalibrated camera; all that versions 1 and 2 could say).
+// Files of versions 1 and 2 are still read (as linear camera RGB).
+inline constexpr int kAxfFormatVersion = 3;
 // The file holding a whole library (`paintlab library export --h5`): /paints/<name> groups,
 // each with the layout of one AxF-like file.
 inline constexpr const char* kAxfLibraryFormat = "paintlab-axf-library";
@@ -73,6 +77,8 @@ struct AxfProvenance {
 
 struct AxfPaint {
   std::string name;    // [a-z0-9._-]+
+  // What the RGB values are: colour::kLinearSrgb or colour::kCameraRgb (/conventions "values").
+  std::string colour_space = colour::kCameraRgb;
   std::string model;   // the paint's model: "axf-carpaint" or "cook-torrance"
   std::optional<brdf::AxfCarPaintParams> carpaint;   // required when model == "axf-carpaint"
   std::optional<AxfCarPaintStddev> carpaint_stddev;  // only with carpaint
@@ -86,11 +92,13 @@ struct AxfPaint {
   bool operator==(const AxfPaint&) const = default;
 };
 
-// The AxF-like form of a paint file's paint. Cook-torrance and axf-carpaint paints only;
+// The AxF-like form of a paint file's paint (linear sRGB: the convention of paint files).
+// Cook-torrance and axf-carpaint paints only;
 // DataError for the others ("layered-pearlescent paints have no AxF-like form: fit it").
 AxfPaint axf_from_paint(const brdf::PaintSpec& spec);
 // The AxF-like form of a fit.json object (DESIGN.md "fit" plus "stddev", "summary") of
-// either model. DataError naming `where` and the key.
+// either model; its colour space is input.colour_space (a session's; camera RGB when absent).
+// DataError naming `where` and the key.
 AxfPaint axf_from_fit_json(const Json& fit, const std::string& where);
 // Adds the paint form of `other` that `base` lacks (a Cook-Torrance fit beside an AxF
 // car-paint fit of the same measurement, or the other way round). DataError when both
@@ -131,7 +139,9 @@ void check_axf_paint(const AxfPaint& paint);
 // provenance.
 std::string describe_axf(const AxfPaint& paint);
 
-// The convention attributes of /conventions (name, text), exactly as written and checked.
+// The convention attributes of /conventions (name, text), exactly as written and checked;
+// "values" as versions 1 and 2 state it (camera RGB), axf_values_convention() for version 3.
 const std::vector<std::pair<std::string, std::string>>& axf_conventions();
+std::string axf_values_convention(const std::string& colour_space);
 
 }  // namespace paintlab::fit
