@@ -14,6 +14,7 @@
 #include <filesystem>
 
 #include "cli.h"
+#include "paintlab/fitting/compare.h"
 #include "paintlab/fitting/output_guard.h"
 #include "paintlab/brdf/paint.h"
 #include "paintlab/calibration/rig_calibration.h"
@@ -23,6 +24,7 @@
 #include "paintlab/core/json.h"
 #include "paintlab/core/process.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/devices/device_config.h"
 #include "paintlab/sim/builtin.h"
 #include "paintlab/sim/config.h"
 #include "paintlab/sim/sensor.h"
@@ -48,6 +50,7 @@ struct DemoArgs {
   int lobes = 0;
   bool keep_going = false;
   int max_iterations = 100;  // of the fit's final solve (paintlab fit --max-iterations)
+  std::string camera = "bayer";
 };
 
 // Runs `paintlab ARGS...` as a child (output goes to the terminal), returns its exit code
@@ -85,13 +88,6 @@ calib::CalibrationTruth calibration_truth(const RigConfig& rig, const sim::SimCo
   return t;
 }
 
-std::string rgb(const Json& a) {
-  if (!a.is_array()) return "-";
-  std::string s;
-  for (const auto& v : a) s += fmt::format("{}{:.4f}", s.empty() ? "" : " ", v.get<double>());
-  return s;
-}
-
 void print_summary(const Json& s) {
   say("");
   say(fmt::format("== paintlab demo: {} ==", s["paint"].get<std::string>()));
@@ -100,23 +96,10 @@ void print_summary(const Json& s) {
   if (s.contains("truth_seen_by_camera"))
     say("(a monochrome camera: the truth column is the paint as the camera sees it, kd and ks weighted by its "
         "channel weights; the paint's own RGB is under \"truth\" in summary.json)");
-  say(fmt::format("{:<14} {:<28} {:<28} {}", "parameter", "truth", "fit", "std dev"));
-  const Json& sd = fit.contains("stddev") ? fit["stddev"] : Json::object();
-  say(fmt::format("{:<14} {:<28} {:<28} {}", "kd", rgb(truth.value("kd", Json())), rgb(fit.value("kd", Json())),
-                  sd.contains("kd") ? rgb(sd["kd"]) : "-"));
-  const std::size_t nt = truth.contains("lobes") ? truth["lobes"].size() : 0;
-  const std::size_t nf = fit.contains("lobes") ? fit["lobes"].size() : 0;
-  for (std::size_t l = 0; l < std::max(nt, nf); ++l) {
-    auto field = [&](const Json& o, std::size_t i, const char* k) -> Json {
-      return o.contains("lobes") && i < o["lobes"].size() ? o["lobes"][i].value(k, Json()) : Json();
-    };
-    auto num = [](const Json& v) { return v.is_number() ? fmt::format("{:.4f}", v.get<double>()) : std::string("-"); };
-    say(fmt::format("{:<14} {:<28} {:<28} {}", fmt::format("lobe {} ks", l + 1), rgb(field(truth, l, "ks")),
-                    rgb(field(fit, l, "ks")), rgb(field(sd, l, "ks"))));
-    for (const char* k : {"m", "r"})
-      say(fmt::format("{:<14} {:<28} {:<28} {}", fmt::format("lobe {} {}", l + 1, k), num(field(truth, l, k)),
-                      num(field(fit, l, k)), num(field(sd, l, k))));
-  }
+  else
+    say(fmt::format("(a colour camera, {}: R, G, B in linear sRGB (D65), the paint's own colour)",
+                    s.value("camera", std::string())));
+  say(fit::compare_table(truth, fit, fit.value("stddev", Json::object())));
   if (fit.contains("residual"))
     say(fmt::format("residual: log-RMS {:.4f} over {} bins", fit["residual"].value("log_rms", 0.0),
                     fit["residual"].value("bins_used", 0)));
@@ -157,7 +140,8 @@ int run_demo(const DemoArgs& a) {
 
   const fs::path rig_file = dir / "rig.toml";
   const fs::path paint_file = dir / (name + ".toml");
-  write_file_atomic(rig_file, sim::demo_rig_toml(a.quick));
+  const sim::DemoCamera camera = sim::demo_camera_from_string(a.camera, "demo --camera");
+  write_file_atomic(rig_file, sim::demo_rig_toml(a.quick, camera));
   write_file_atomic(paint_file, paint.toml_text);
   const RigConfig rig = load_rig(rig_file);
   const sim::SimConfig truth = sim::SimConfig::from_rig(rig);
@@ -222,9 +206,10 @@ int run_demo(const DemoArgs& a) {
   Json summary;
   summary["paint"] = name;
   summary["truth"] = brdf::to_json(paint.spec);
-  // Every camera format the rig supports is monochrome (devices/camera.h: Mono8/12/16).
-  const auto& w = truth.camera.mono_weights;
-  summary["truth_seen_by_camera"] = brdf::to_json(brdf::seen_in_mono(paint.spec, brdf::Rgb(w[0], w[1], w[2])));
+  summary["camera"] = dev::to_string(dev::camera_config(rig.camera, rig.geometry).pixel_format);
+  const auto& w = truth.camera.mono_weights;  // a monochrome camera measures the paint through them
+  if (camera == sim::DemoCamera::Mono)
+    summary["truth_seen_by_camera"] = brdf::to_json(brdf::seen_in_mono(paint.spec, brdf::Rgb(w[0], w[1], w[2])));
   summary["fit"] = fit;
   const Json& fit_summary = fit.contains("summary") && fit["summary"].is_object() ? fit["summary"] : Json::object();
   const bool fit_converged = fit_summary.value("converged", true);
@@ -259,6 +244,8 @@ void register_demo_commands(CLI::App& app) {
   sets_fields(d->add_option("--lobes", a->lobes, "Cook-Torrance lobes to fit (default: the paint's, at most 3)"),
               {"CtFitOptions::lobes"});
   d->add_flag("--keep-going", a->keep_going, "Measure even when the rig check fails");
+  d->add_option("--camera", a->camera, "bayer: a BayerRG16 colour camera (R, G, B in linear sRGB); mono: Mono16")
+      ->capture_default_str();
   sets_fields(d->add_option("--max-iterations", a->max_iterations,
                             "Iterations of the fit's final solve (paintlab fit --max-iterations); a fit that stops "
                             "there is exported and summarised all the same, and the demo exits 1"),

@@ -5,6 +5,11 @@
 //     and the ratio printed.
 //  2. 16-bit mono, the rig's case: response only (one table per raw value) and response + dark
 //     frame + flat field (per-pixel dark subtraction), in GB/s of input, against memcpy.
+//  3. BayerRG12 colour (issue 14): the mosaic merged with response, dark and flat, then
+//     demosaiced with its variance and mapped by a colour matrix (what `paintlab measure` stores
+//     per light position), in GB/s of raw input (2 bytes a pixel); against OpenCV: each frame
+//     demosaiced (cv::demosaicing, bilinear, 16-bit), scaled to 8 bits for MergeRobertson (which
+//     takes only 8-bit input), merged, and the same matrix applied (cv::transform).
 // Run: build/bench/acquisition/bench_acquisition_hdr [--benchmark_filter=...]
 //      [--benchmark_out=hdr.json --benchmark_out_format=json]
 // The argument of our runs is the number of threads TBB may use (tbb::global_control); OpenCV
@@ -24,6 +29,9 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
+#include "paintlab/acquisition/demosaic.h"
 #include "paintlab/acquisition/hdr_merge.h"
 
 using namespace paintlab;
@@ -283,12 +291,123 @@ void BM_MemcpyStack16BitMono(benchmark::State& state) {
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * s.input_bytes));
 }
 
+// --- BayerRG12 colour: merge the mosaic, demosaic, colour matrix -------------------------
+
+struct BayerStack {
+  std::vector<Image<std::uint16_t>> images;  // 12-bit values
+  std::vector<double> t;
+  acq::HdrCalibration full;                  // response + dark + flat (per filter colour)
+  acq::ColourMap map;
+  cv::Mat cv_response;                       // 256 x 1 CV_32FC3 for the 8-bit OpenCV path
+  cv::Matx33f cv_matrix;
+  std::size_t input_bytes = 0;
+};
+
+const BayerStack& bayer_stack() {
+  static BayerStack s = [] {
+    BayerStack s;
+    s.t = bracket();
+    const std::vector<float> x = scene(kWidth * kHeight, 31);
+    std::mt19937_64 rng(32);
+    std::normal_distribution<float> noise(0.0f, 1.0f);
+    const double black = 64.0, span = 4095.0 - black;
+    for (double t : s.t) {
+      Image<std::uint16_t> img(kWidth, kHeight, 1);
+      for (std::size_t i = 0; i < img.size(); ++i) {
+        const double e = std::min(1.0, x[i] * t / 1000.0);
+        const double v = black + span * e;
+        img.data()[i] = static_cast<std::uint16_t>(std::clamp(std::round(v + std::sqrt(v * 0.3 + 10.0) * noise(rng)), 0.0, 4095.0));
+      }
+      s.input_bytes += img.size() * sizeof(std::uint16_t);
+      s.images.push_back(std::move(img));
+    }
+    calib::ResponseCurve r;
+    r.bit_depth = 12;
+    r.channels = 1;
+    r.window.black_dn = black;
+    r.window.floor_dn = 8.0;
+    r.window.saturation_dn = 4095.0;
+    r.linear.resize(1);
+    for (int k = 0; k < 256; ++k) {
+      r.knots_dn.push_back(span * k / 255.0);
+      r.linear[0].push_back(span * k / 255.0);
+    }
+    r.noise = {3.0, 0.3, "benchmark"};
+    s.full.response = r;
+    calib::DarkFrame d;
+    d.bit_depth = 12;
+    d.bias_dn = ImageF(kWidth, kHeight, 1, static_cast<float>(black));
+    d.rate_dn_per_s = ImageF(kWidth, kHeight, 1, 0.5f);
+    d.hot = ImageU8(kWidth, kHeight, 1, 0);
+    d.read_noise_dn = 3.0;
+    d.read_noise_measured = true;
+    d.mean_bias_dn = black;
+    calib::FlatField f;
+    f.gain = ImageF(kWidth, kHeight, 1, 1.0f);
+    for (int y = 0; y < kHeight; ++y)
+      for (int x2 = 0; x2 < kWidth; ++x2) {
+        const double rx = (x2 - kWidth / 2.0) / kWidth, ry = (y - kHeight / 2.0) / kWidth;
+        f.gain.at(x2, y) = static_cast<float>(1.1 - 0.4 * (rx * rx + ry * ry));
+      }
+    f.cfa = std::array<int, 4>{0, 1, 1, 2};
+    s.full.dark = d;
+    s.full.flat = f;
+    const std::array<double, 9> m{1.6, -0.5, -0.1, -0.2, 1.4, -0.2, 0.0, -0.4, 1.4};
+    s.map.pattern = dev::CfaPattern::RG;
+    s.map.balance = {1.8, 1.0, 1.3};
+    s.map.matrix = m;
+    for (int i = 0; i < 9; ++i) s.cv_matrix.val[i] = static_cast<float>(m[static_cast<std::size_t>(i)] * s.map.balance[static_cast<std::size_t>(i % 3)]);
+    s.cv_response = cv::Mat(256, 1, CV_32FC3);
+    for (int k = 0; k < 256; ++k) s.cv_response.at<cv::Vec3f>(k) = cv::Vec3f(1.0f, 1.0f, 1.0f) * static_cast<float>(k);
+    return s;
+  }();
+  return s;
+}
+
+void BM_OursMergeBayerRG12DemosaicMatrix(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(0)));
+  const BayerStack& s = bayer_stack();
+  acq::HdrMerger merger(s.full, acq::HdrOptions{}, kWidth, kHeight, 1, 12);
+  const auto frames = frames_of(s.images, s.t);
+  for (auto _ : state) {
+    acq::HdrResult r = merger.merge(frames);
+    ExrImage rgb = acq::demosaic_to_colour(r.image, s.map);
+    benchmark::DoNotOptimize(rgb.planes.front().data());
+  }
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * s.input_bytes));
+  state.counters["threads"] = static_cast<double>(state.range(0));
+}
+
+// OpenCV's way to the same: demosaic every frame, 8 bits for MergeRobertson, merge, matrix.
+void BM_OpenCvDemosaicMergeRobertsonBayerRG12(benchmark::State& state) {
+  const BayerStack& s = bayer_stack();
+  std::vector<float> times(s.t.begin(), s.t.end());
+  auto merge = cv::createMergeRobertson();
+  for (auto _ : state) {
+    std::vector<cv::Mat> rgb8(s.images.size());
+    for (std::size_t j = 0; j < s.images.size(); ++j) {
+      const cv::Mat mosaic(kHeight, kWidth, CV_16UC1, const_cast<std::uint16_t*>(s.images[j].data()));
+      cv::Mat rgb16;
+      cv::demosaicing(mosaic, rgb16, cv::COLOR_BayerBG2RGB);  // GenICam BayerRG is OpenCV's BayerBG
+      rgb16.convertTo(rgb8[j], CV_8UC3, 1.0 / 16.0);
+    }
+    cv::Mat hdr, out;
+    merge->process(rgb8, hdr, times, s.cv_response);
+    cv::transform(hdr, out, s.cv_matrix);
+    benchmark::DoNotOptimize(out.data);
+  }
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * s.input_bytes));
+  state.counters["opencv_threads"] = cv::getNumThreads();
+}
+
 BENCHMARK(BM_OpenCvMergeRobertson8BitRgb)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(2.0);
 BENCHMARK(BM_OursMerge8BitRgb)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
 BENCHMARK(BM_OursMerge16BitMonoResponse)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
 BENCHMARK(BM_OursMerge16BitMonoResponseDarkFlat)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
 BENCHMARK(BM_OursMerge16BitMonoResponseDarkFlatBaselineSimd)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
 BENCHMARK(BM_MemcpyStack16BitMono)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(BM_OursMergeBayerRG12DemosaicMatrix)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(1.0);
+BENCHMARK(BM_OpenCvDemosaicMergeRobertsonBayerRG12)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinTime(2.0);
 
 // Keeps each benchmark's real time per iteration (ms) for the summary.
 class Collecting : public benchmark::ConsoleReporter {

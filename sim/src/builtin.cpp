@@ -50,10 +50,27 @@ void set_key(toml::table& rig, std::string_view path, T value) {
 
 }  // namespace
 
-std::string demo_rig_toml(bool quick) {
+const char* to_string(DemoCamera c) { return c == DemoCamera::Mono ? "mono" : "bayer"; }
+
+DemoCamera demo_camera_from_string(const std::string& s, const std::string& option) {
+  if (s == "mono") return DemoCamera::Mono;
+  if (s == "bayer") return DemoCamera::Bayer;
+  throw UsageError(fmt::format("{} {}: one of bayer (a colour camera), mono", option, s));
+}
+
+std::string demo_rig_toml(bool quick, DemoCamera camera) {
   const std::string text = builtin_rig_toml();
   toml::table rig = toml::parse(std::string_view(text), std::string_view("rig-sim.toml"));
   set_key(rig, "calibration", std::string("calib"));
+  if (camera == DemoCamera::Bayer) {
+    set_key(rig, "devices.camera.pixel_format", std::string("BayerRG16"));
+    // Camera RGB = diag(gain) M sRGB: dyes that see into the neighbouring primaries, a green
+    // channel twice as sensitive as red, and an LED warmer than D65.
+    rig.at_path("sim.camera").as_table()->insert_or_assign(
+        "rgb_matrix", toml::array{0.82, 0.22, -0.04, 0.08, 0.86, 0.06, 0.03, 0.17, 0.80});
+    rig.at_path("sim.camera").as_table()->insert_or_assign("rgb_gain", toml::array{0.55, 1.0, 0.75});
+    rig.at_path("sim.led").as_table()->insert_or_assign("color", toml::array{1.0, 0.96, 0.86});
+  }
   if (quick) {
     const RigConfig full = RigConfig::parse(ConfigTable::parse_string(text, "rig-sim.toml"), "rig-sim.toml");
     const SimConfig truth = SimConfig::from_rig(full);
@@ -77,6 +94,9 @@ std::string demo_rig_toml(bool quick) {
                   "# light every 10 deg, 8 exposures; the keys are described in docs/rig.md.\n"
                 : "# paintlab demo: the built-in simulated rig (examples/rig-sim.toml); the keys are described in "
                   "docs/rig.md.\n")
+      << (camera == DemoCamera::Bayer ? "# The camera: a BayerRG16 colour camera with its own channel mix, under a warm "
+                                        "LED (paintlab demo --camera bayer).\n"
+                                      : "")
       // Shortest round-tripping numbers (0.6, not 0.59999999999999998), strings in double quotes.
       << toml::toml_formatter(rig, (toml::toml_formatter::default_flags & ~toml::format_flags::allow_literal_strings) |
                                        toml::format_flags::relaxed_float_precision)

@@ -63,21 +63,27 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
   EXPECT_LT(c["light_angle_error_deg"].get<double>(), 0.2);
   EXPECT_LT(c["response_error_rel"].get<double>(), 0.02);
 
-  // The fit against the paint: the diffuse term, the broad metallic lobe and the clear
-  // coat. (The medium lobe trades ks against F0 on the 19 light positions of --quick; the
-  // full demo reports it.)
-  // The camera is monochrome: the truth it can measure is the paint's kd and ks weighted
-  // by its channel weights.
-  ASSERT_TRUE(s.contains("truth_seen_by_camera"));
-  const Json& truth = s["truth_seen_by_camera"];
+  // The fit against the paint, in colour: the demo's camera is a BayerRG16 colour camera with
+  // a channel mix unlike sRGB under a warm LED, so R, G, B come out in linear sRGB and the
+  // truth is the paint's own RGB. The diffuse term and the broad metallic lobe per channel;
+  // the clear coat wider than it is (bilinear demosaicing blurs its 2-3 px highlight at half
+  // resolution: m +21 %, ks -6 % in this run; the monochrome camera gets +3 %, docs/colour.md).
+  // (The medium lobe trades ks against F0 on the 19 light positions of --quick; the full demo
+  // reports it.)
+  EXPECT_EQ(s["camera"], "BayerRG16");
+  EXPECT_FALSE(s.contains("truth_seen_by_camera"));
+  EXPECT_THAT(r.out, HasSubstr("R, G, B in linear sRGB (D65)"));
+  const Json& truth = s["truth"];
   const Json& fit = s["fit"];
   ASSERT_EQ(fit["lobes"].size(), truth["lobes"].size());
-  for (int ch = 0; ch < 3; ++ch) EXPECT_LT(rel(fit["kd"][ch], truth["kd"][ch]), 0.10) << "kd " << ch;
-  for (int l : {0, 2}) {
-    EXPECT_LT(rel(fit["lobes"][l]["m"], truth["lobes"][l]["m"]), 0.10) << "lobe " << l;
-    for (int ch = 0; ch < 3; ++ch)
-      EXPECT_LT(rel(fit["lobes"][l]["ks"][ch], truth["lobes"][l]["ks"][ch]), 0.15) << "lobe " << l << " ks " << ch;
+  EXPECT_EQ(fit["input"]["colour_space"], "linear sRGB (D65)");
+  for (int ch = 0; ch < 3; ++ch) EXPECT_LT(rel(fit["kd"][ch], truth["kd"][ch]), 0.03) << "kd " << ch;
+  EXPECT_LT(rel(fit["lobes"][0]["m"], truth["lobes"][0]["m"]), 0.02);
+  for (int ch = 0; ch < 3; ++ch) {
+    EXPECT_LT(rel(fit["lobes"][0]["ks"][ch], truth["lobes"][0]["ks"][ch]), 0.05) << "lobe 1 ks " << ch;
+    EXPECT_LT(rel(fit["lobes"][2]["ks"][ch], truth["lobes"][2]["ks"][ch]), 0.15) << "lobe 3 ks " << ch;
   }
+  EXPECT_LT(rel(fit["lobes"][2]["m"], truth["lobes"][2]["m"]), 0.30);
 
   // The files: the AxF-like file validates, the MERL table reads, the library lists the paint.
   EXPECT_EQ(test::run_paintlab("axf validate " + s["files"]["axf"].get<std::string>()).exit_code, 0);
@@ -88,12 +94,13 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
   EXPECT_THAT(lib.out, HasSubstr("silver-metallic"));
 }
 
-// Issue 13: a fit that stops at its iteration limit does not lose the run. The demo goes on
+// Issue 13: a fit that stops at its iteration limit does not lose the run (here on the
+// monochrome camera, the demo's other camera kind). The demo goes on
 // with fit.json ("converged": false), exports, renders, says so in its summary, exits 1.
 TEST(DemoCli, AFitThatDoesNotConvergeIsExportedAndSummarised) {
   test::TempDir dir;
   const fs::path out = dir / "demo";
-  auto r = test::run_paintlab("demo --quick --max-iterations 1 --paint " +
+  auto r = test::run_paintlab("demo --quick --camera mono --max-iterations 1 --paint " +
                               (test::source_dir() / "paints/pearlescent.toml").string() + " --out " + out.string());
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_THAT(r.err, HasSubstr("did not converge"));
@@ -104,6 +111,11 @@ TEST(DemoCli, AFitThatDoesNotConvergeIsExportedAndSummarised) {
   EXPECT_FALSE(s["fit_converged"].get<bool>());
   EXPECT_THAT(s["fit_termination"].get<std::string>(), HasSubstr("NO_CONVERGENCE"));
   EXPECT_FALSE(s["fit"]["summary"]["converged"].get<bool>());
+  // The monochrome camera: the truth it can measure is the paint's kd and ks weighted by its
+  // channel weights, and the values are camera RGB.
+  EXPECT_EQ(s["camera"], "Mono16");
+  ASSERT_TRUE(s.contains("truth_seen_by_camera"));
+  EXPECT_EQ(s["fit"]["input"]["colour_space"], "linear camera RGB");
   for (const char* f : {"axf", "merl", "fit", "preview", "compare"})
     EXPECT_TRUE(fs::exists(s["files"][f].get<std::string>())) << f;
   EXPECT_EQ(test::run_paintlab("axf validate " + s["files"]["axf"].get<std::string>()).exit_code, 0);

@@ -2,11 +2,15 @@
 // size and --quick, and the paint a simulated sample wears unless told.
 #include "paintlab/sim/builtin.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "paintlab/core/config.h"
+#include "paintlab/core/error.h"
+#include "paintlab/devices/device_config.h"
 #include "paintlab/core/rig.h"
 #include "paintlab/sim/config.h"
+#include "test_util.h"
 
 using namespace paintlab;
 
@@ -44,6 +48,23 @@ TEST(Builtin, TheQuickDemoRigHasHalfTheResolutionWithTheSameOpticsAndAShortPlan)
   EXPECT_EQ(quick.plan.exposures_s.size(), 8u);
   ASSERT_GE(quick.plan.angles_deg().size(), 2u);
   EXPECT_NEAR(quick.plan.angles_deg()[1] - quick.plan.angles_deg()[0], 10.0, 1e-9);
+}
+
+TEST(Builtin, TheColourDemoRigHasABayerCameraWithItsOwnMixUnderAWarmLed) {
+  const std::string text = sim::demo_rig_toml(true, sim::DemoCamera::Bayer);
+  const RigConfig rig = parse_rig_text(text);
+  EXPECT_EQ(dev::camera_config(rig.camera, rig.geometry).pixel_format, dev::PixelFormat::BayerRG16);
+  const sim::SimConfig truth = sim::SimConfig::from_rig(rig);
+  EXPECT_EQ(truth.camera.rgb_gain, (std::array<double, 3>{0.55, 1.0, 0.75}));
+  EXPECT_DOUBLE_EQ(truth.camera.rgb_matrix[1], 0.22);
+  EXPECT_DOUBLE_EQ(truth.led.color[2], 0.86);
+  EXPECT_THAT(text, ::testing::HasSubstr("BayerRG16 colour camera"));
+  // The monochrome one is the built-in rig's camera.
+  const RigConfig mono = parse_rig_text(sim::demo_rig_toml(true, sim::DemoCamera::Mono));
+  EXPECT_EQ(dev::camera_config(mono.camera, mono.geometry).pixel_format, dev::PixelFormat::Mono16);
+  EXPECT_EQ(sim::demo_camera_from_string("bayer", "--camera"), sim::DemoCamera::Bayer);
+  EXPECT_THAT(test::error_message<UsageError>([] { sim::demo_camera_from_string("rgb", "demo --camera"); }),
+              ::testing::HasSubstr("demo --camera rgb: one of bayer"));
 }
 
 TEST(Builtin, TheDefaultSamplePaintIsTheSilverMetallic) {

@@ -23,10 +23,17 @@ struct SimulatedPaint {
 };
 SimulatedPaint simulated_paint(const std::string& file, const std::string& option);
 
+// The camera of the demo's rig: the built-in rig's monochrome Mono16 camera, or a colour
+// camera in its place (BayerRG16 behind a channel mix unlike sRGB, with gains of its own,
+// under a warm LED: docs/simulator.md), which the colour calibration has to undo.
+enum class DemoCamera { Mono, Bayer };
+const char* to_string(DemoCamera c);  // "mono", "bayer"
+DemoCamera demo_camera_from_string(const std::string& s, const std::string& option);  // UsageError naming option
+
 // The rig `paintlab demo` writes: the built-in rig with its calibration folder "calib"
-// beside the rig file; with `quick`, half the resolution (pixels twice as large, the
-// simulated intrinsics and blur halved, pixel centres kept), light every 10 deg and 8
-// exposures. Numbers rounded to 6 significant digits, a comment line first.
-std::string demo_rig_toml(bool quick);
+// beside the rig file and the given camera; with `quick`, half the resolution (pixels twice
+// as large, the simulated intrinsics and blur halved, pixel centres kept), light every 10 deg
+// and 8 exposures. Numbers rounded to 6 significant digits, a comment line first.
+std::string demo_rig_toml(bool quick, DemoCamera camera = DemoCamera::Mono);
 
 }  // namespace paintlab::sim
