@@ -103,6 +103,89 @@ Demosaiced demosaic_at_border(const float* value, const float* variance, const f
   return d;
 }
 
+// The interior's four kinds of site: the colour a site sees and, for a green site, the colour
+// of its left and right neighbours.
+enum SiteKind { kRedSite = 0, kBlueSite = 1, kGreenAcrossRed = 2, kGreenAcrossBlue = 3 };
+
+// What the fast path reads and writes: the mosaic's planes, the output planes and the linear
+// colour map (balance folded in) with its squares for the variance.
+struct Kernel {
+  const float* value;
+  const float* variance;
+  const float* valid;
+  float* out[3];
+  float* out_var[3];
+  float* out_ok;
+  std::size_t W;
+  int w;
+  float m[9], m2[9];
+  bool mixes[9];  // m[r][c] != 0: an invalid channel c spoils output r
+};
+
+// The bilinear estimate at an interior site of kind K (constant indices: the compiler keeps
+// the three channels in registers), mapped and stored.
+template <int K>
+inline void interior_pixel(const Kernel& k, std::size_t i) {
+  const float* v = k.value;
+  const float* q = k.variance;
+  const float* a = k.valid;
+  const std::size_t up = i - k.W, down = i + k.W;
+  float c[3], var[3];
+  bool ok[3];
+  auto site = [&](int ch) {
+    c[ch] = v[i];
+    var[ch] = q[i];
+    ok[ch] = a[i] > 0.5f;
+  };
+  auto four = [&](int ch, std::size_t s0, std::size_t s1, std::size_t s2, std::size_t s3) {
+    c[ch] = 0.25f * (v[s0] + v[s1] + v[s2] + v[s3]);
+    var[ch] = 0.0625f * (q[s0] + q[s1] + q[s2] + q[s3]);
+    ok[ch] = (a[s0] > 0.5f) & (a[s1] > 0.5f) & (a[s2] > 0.5f) & (a[s3] > 0.5f);
+  };
+  auto two = [&](int ch, std::size_t s0, std::size_t s1) {
+    c[ch] = 0.5f * (v[s0] + v[s1]);
+    var[ch] = 0.25f * (q[s0] + q[s1]);
+    ok[ch] = (a[s0] > 0.5f) & (a[s1] > 0.5f);
+  };
+  if constexpr (K == kRedSite || K == kBlueSite) {
+    constexpr int own = K == kRedSite ? 0 : 2;
+    site(own);
+    four(1, i - 1, i + 1, up, down);
+    four(2 - own, up - 1, up + 1, down - 1, down + 1);
+  } else {
+    constexpr int across = K == kGreenAcrossRed ? 0 : 2;
+    site(1);
+    two(across, i - 1, i + 1);
+    two(2 - across, up, down);
+  }
+  k.out_ok[i] = ok[0] & ok[1] & ok[2] ? 1.0f : 0.0f;
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  for (int r = 0; r < 3; ++r) {
+    k.out[r][i] = k.m[3 * r] * c[0] + k.m[3 * r + 1] * c[1] + k.m[3 * r + 2] * c[2];
+    const bool bad = (!ok[0] & k.mixes[3 * r]) | (!ok[1] & k.mixes[3 * r + 1]) | (!ok[2] & k.mixes[3 * r + 2]);
+    const float sum = k.m2[3 * r] * var[0] + k.m2[3 * r + 1] * var[1] + k.m2[3 * r + 2] * var[2];
+    k.out_var[r][i] = bad ? inf : sum;
+  }
+}
+
+// The interior of row y: odd columns of kind KOdd, even ones of kind KEven.
+template <int KEven, int KOdd>
+void interior_row(const Kernel& k, int y) {
+  const std::size_t row = static_cast<std::size_t>(y) * k.W;
+  int x = 1;
+  for (; x + 1 < k.w - 1; x += 2) {
+    interior_pixel<KOdd>(k, row + static_cast<std::size_t>(x));
+    interior_pixel<KEven>(k, row + static_cast<std::size_t>(x) + 1);
+  }
+  if (x < k.w - 1) interior_pixel<KOdd>(k, row + static_cast<std::size_t>(x));
+}
+
+using RowFn = void (*)(const Kernel&, int);
+template <int A>
+constexpr std::array<RowFn, 4> kRowsOf = {interior_row<A, 0>, interior_row<A, 1>, interior_row<A, 2>,
+                                          interior_row<A, 3>};
+constexpr std::array<std::array<RowFn, 4>, 4> kRows = {kRowsOf<0>, kRowsOf<1>, kRowsOf<2>, kRowsOf<3>};
+
 }  // namespace
 
 ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map) {
@@ -180,42 +263,38 @@ ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map) {
   };
 
   const std::size_t W = static_cast<std::size_t>(w);
+  Kernel kernel{value, variance, valid, {o_v[0], o_v[1], o_v[2]}, {o_var[0], o_var[1], o_var[2]}, o_ok, W, w, {}, {}, {}};
+  for (int j = 0; j < 9; ++j) {
+    kernel.m[j] = m[j];
+    kernel.m2[j] = m2[j];
+    kernel.mixes[j] = m2[j] != 0.0f;
+  }
+  // The kind of site at (x, y) of the interior.
+  auto kind = [&](int x, int y) {
+    const int own = colour[y & 1][x & 1];
+    if (own == 0) return kRedSite;
+    if (own == 2) return kBlueSite;
+    return colour[y & 1][(x + 1) & 1] == 0 ? kGreenAcrossRed : kGreenAcrossBlue;
+  };
+  const RowFn rows_of[2] = {kRows[static_cast<std::size_t>(kind(0, 0))][static_cast<std::size_t>(kind(1, 0))],
+                            kRows[static_cast<std::size_t>(kind(0, 1))][static_cast<std::size_t>(kind(1, 1))]};
   tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
       const std::size_t row = static_cast<std::size_t>(y) * W;
-      const bool border_row = y == 0 || y == h - 1;
-      for (int x = 0; x < w; ++x) {
+      if (y == 0 || y == h - 1) {
+        for (int x = 0; x < w; ++x)
+          store(row + static_cast<std::size_t>(x), demosaic_at_border(value, variance, valid, w, h, x, y, colour));
+        continue;
+      }
+      store(row, demosaic_at_border(value, variance, valid, w, h, 0, y, colour));
+      store(row + W - 1, demosaic_at_border(value, variance, valid, w, h, w - 1, y, colour));
+      if (linear) {
+        rows_of[y & 1](kernel, y);
+        continue;
+      }
+      for (int x = 1; x < w - 1; ++x) {  // the non-linear map: the general path
         const std::size_t i = row + static_cast<std::size_t>(x);
-        if (border_row || x == 0 || x == w - 1) {
-          store(i, demosaic_at_border(value, variance, valid, w, h, x, y, colour));
-          continue;
-        }
-        const int own = colour[y & 1][x & 1];
-        const std::size_t up = i - W, down = i + W;
-        Demosaiced d;
-        d.v[own] = value[i];
-        d.var[own] = variance[i];
-        d.ok[own] = valid[i] > 0.5f;
-        if (own != 1) {
-          // A red or blue site: green from the four edge neighbours, the other from the four diagonals.
-          d.v[1] = 0.25f * (value[i - 1] + value[i + 1] + value[up] + value[down]);
-          d.var[1] = 0.0625f * (variance[i - 1] + variance[i + 1] + variance[up] + variance[down]);
-          d.ok[1] = valid[i - 1] > 0.5f && valid[i + 1] > 0.5f && valid[up] > 0.5f && valid[down] > 0.5f;
-          const int other = 2 - own;
-          d.v[other] = 0.25f * (value[up - 1] + value[up + 1] + value[down - 1] + value[down + 1]);
-          d.var[other] = 0.0625f * (variance[up - 1] + variance[up + 1] + variance[down - 1] + variance[down + 1]);
-          d.ok[other] = valid[up - 1] > 0.5f && valid[up + 1] > 0.5f && valid[down - 1] > 0.5f && valid[down + 1] > 0.5f;
-        } else {
-          // A green site: one colour left and right, the other above and below.
-          const int across = colour[y & 1][(x + 1) & 1], along = 2 - across;
-          d.v[across] = 0.5f * (value[i - 1] + value[i + 1]);
-          d.var[across] = 0.25f * (variance[i - 1] + variance[i + 1]);
-          d.ok[across] = valid[i - 1] > 0.5f && valid[i + 1] > 0.5f;
-          d.v[along] = 0.5f * (value[up] + value[down]);
-          d.var[along] = 0.25f * (variance[up] + variance[down]);
-          d.ok[along] = valid[up] > 0.5f && valid[down] > 0.5f;
-        }
-        store(i, d);
+        store(i, demosaic_at_border(value, variance, valid, w, h, x, y, colour));
       }
     }
   });

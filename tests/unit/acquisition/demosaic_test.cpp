@@ -258,3 +258,41 @@ TEST(DemosaicMerged, AGreyTargetsMosaicIsBalancedSoASmallSpotKeepsItsPlace) {
   EXPECT_NEAR(sx / s, 8.0, 0.02);
   EXPECT_NEAR(sy / s, 8.0, 0.02);
 }
+
+TEST(DemosaicToColour, TheRowKernelsAgreeWithTheGeneralPathForEveryArrangement) {
+  // The linear map takes the specialised row kernels; the same map given as a function takes
+  // the general neighbourhood code: both must give the same image, invalid sites included.
+  const std::array<double, 9> m{1.5, -0.4, -0.1, -0.2, 1.3, -0.1, 0.05, -0.3, 1.25};
+  for (CfaPattern p : kPatterns) {
+    SCOPED_TRACE(dev::to_string(p));
+    std::uint32_t state = 12345u + static_cast<std::uint32_t>(p);
+    auto next = [&] {
+      state = state * 1664525u + 1013904223u;
+      return (state >> 8) / 16777216.0;
+    };
+    ExrImage mosaic = merged_mosaic_of(13, 9, p, [&](int, int, int) { return 50.0 + 1000.0 * next(); });
+    for (float& v : mosaic.find("var.Y")->values()) v = static_cast<float>(1.0 + 10.0 * next());
+    for (float& v : mosaic.find("valid")->values()) v = next() < 0.05 ? 0.0f : 1.0f;
+    acq::ColourMap fast;
+    fast.pattern = p;
+    fast.balance = {1.7, 1.0, 1.2};
+    fast.matrix = m;
+    acq::ColourMap general = fast;
+    general.nonlinear = [m](const std::array<double, 3>& b) {
+      return std::array<double, 3>{m[0] * b[0] + m[1] * b[1] + m[2] * b[2], m[3] * b[0] + m[4] * b[1] + m[5] * b[2],
+                                   m[6] * b[0] + m[7] * b[1] + m[8] * b[2]};
+    };
+    const ExrImage a = acq::demosaic_to_colour(mosaic, fast);
+    const ExrImage b = acq::demosaic_to_colour(mosaic, general);
+    for (const char* c : {"R", "G", "B", "var.R", "var.G", "var.B", "valid"})
+      for (int y = 0; y < 9; ++y)
+        for (int x = 0; x < 13; ++x) {
+          const float u = a.plane(c).at(x, y), v = b.plane(c).at(x, y);
+          if (std::isinf(v)) {
+            EXPECT_TRUE(std::isinf(u)) << c << " " << x << "," << y;
+          } else {
+            EXPECT_NEAR(u, v, 1e-3 * std::max(1.0f, std::abs(v))) << c << " " << x << "," << y;
+          }
+        }
+  }
+}
