@@ -303,6 +303,70 @@ ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map) {
   return out;
 }
 
+ExrImage map_colour(const std::array<const ExrImage*, 3>& channels, const ColourMap& map) {
+  const ImageF* v[3];
+  const ImageF* q[3];
+  const ImageF* a[3];
+  for (int c = 0; c < 3; ++c) {
+    const ExrImage& e = *channels[static_cast<std::size_t>(c)];
+    v[c] = e.find("Y");
+    q[c] = e.find("var.Y");
+    a[c] = e.find("valid");
+    if (!v[c] || !q[c] || !a[c])
+      throw DataError("map_colour: each channel's merged image has the planes Y, var.Y and valid");
+    if (e.width != channels[0]->width || e.height != channels[0]->height)
+      throw DataError(fmt::format("map_colour: the channels' images differ in size ({}x{} and {}x{})", e.width,
+                                  e.height, channels[0]->width, channels[0]->height));
+  }
+  const int w = channels[0]->width, h = channels[0]->height;
+  ExrImage out;
+  out.width = w;
+  out.height = h;
+  out.attributes = channels[0]->attributes;
+  out.attributes["paintlab.colour_space"] = map.colour_space;
+  std::vector<ImageF> planes(7);
+  tbb::parallel_for(0, 7, [&](int k) { planes[static_cast<std::size_t>(k)] = ImageF(w, h, 1); });
+  const float inf = std::numeric_limits<float>::infinity();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      std::array<double, 3> cam{};
+      std::array<double, 3> var{};
+      bool ok[3];
+      for (int c = 0; c < 3; ++c) {
+        cam[static_cast<std::size_t>(c)] = v[c]->data()[i];
+        var[static_cast<std::size_t>(c)] = q[c]->data()[i];
+        ok[c] = a[c]->data()[i] > 0.5f;
+      }
+      const std::array<double, 3> f = map.apply(cam);
+      // The map's Jacobian (exact for a matrix) by forward differences.
+      double var_out[3] = {0, 0, 0};
+      bool bad[3] = {false, false, false};
+      const double step = 1e-4 * std::max({std::abs(cam[0]), std::abs(cam[1]), std::abs(cam[2]), 1e-12});
+      for (int j = 0; j < 3; ++j) {
+        std::array<double, 3> shifted = cam;
+        shifted[static_cast<std::size_t>(j)] += step;
+        const std::array<double, 3> g = map.apply(shifted);
+        for (int r = 0; r < 3; ++r) {
+          const double d = (g[static_cast<std::size_t>(r)] - f[static_cast<std::size_t>(r)]) / step;
+          if (d == 0.0) continue;
+          if (!ok[j]) bad[r] = true;
+          var_out[r] += d * d * var[static_cast<std::size_t>(j)];
+        }
+      }
+      for (int r = 0; r < 3; ++r) {
+        planes[static_cast<std::size_t>(r)].data()[i] = static_cast<float>(f[static_cast<std::size_t>(r)]);
+        planes[static_cast<std::size_t>(3 + r)].data()[i] =
+            bad[r] || !std::isfinite(var_out[r]) ? inf : static_cast<float>(var_out[r]);
+      }
+      planes[6].data()[i] = ok[0] && ok[1] && ok[2] ? 1.0f : 0.0f;
+    }
+  });
+  const char* names[7] = {"R", "G", "B", "var.R", "var.G", "var.B", "valid"};
+  for (int k = 0; k < 7; ++k) out.add(names[k], std::move(planes[static_cast<std::size_t>(k)]));
+  return out;
+}
+
 ExrImage demosaic_merged(const ExrImage& mosaic, dev::CfaPattern pattern) {
   ColourMap map;
   map.pattern = pattern;

@@ -1,5 +1,7 @@
 #include "paintlab/acquisition/journal.h"
 
+#include <fmt/format.h>
+
 #include <cerrno>
 #include <unistd.h>
 
@@ -11,7 +13,7 @@ namespace fs = std::filesystem;
 namespace paintlab::acq {
 
 Json JournalEntry::to_json() const {
-  return Json{{"index", index},
+  Json j{{"index", index},
               {"angle_deg", angle_deg},
               {"angle_read_deg", angle_read_deg},
               {"file", file},
@@ -25,9 +27,24 @@ Json JournalEntry::to_json() const {
               {"clock_start_s", clock_start_s},
               {"clock_end_s", clock_end_s},
               {"utc", utc}};
+  if (!filters.empty()) {
+    j["filters"] = filters;
+    j["filter_slots"] = filter_slots;
+  }
+  return j;
 }
 
 JournalEntry JournalEntry::from_json(const Json& j, const std::string& where) {
+  JournalEntry e = read_fields(j, where);
+  e.filters = json_get_or<std::vector<std::string>>(j, "filters", {}, where);
+  e.filter_slots = json_get_or<std::vector<int>>(j, "filter_slots", {}, where);
+  if (!e.filters.empty() && (e.filters.size() != e.exposures_s.size() || e.filter_slots.size() != e.filters.size()))
+    throw DataError(fmt::format("{}: {} filters and {} filter slots for {} frames", where, e.filters.size(),
+                                e.filter_slots.size(), e.exposures_s.size()));
+  return e;
+}
+
+JournalEntry JournalEntry::read_fields(const Json& j, const std::string& where) {
   JournalEntry e;
   e.index = json_get<int>(j, "index", where);
   e.angle_deg = json_get<double>(j, "angle_deg", where);

@@ -41,6 +41,10 @@ MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated, bool n
   for (const char* name :
        {calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile, calib::kColourFile})
     use(name, "", false);
+  if (need_sphere_mask && rig.filter_wheel)
+    throw UsageError(fmt::format("--adaptive: {} has a filter wheel, and adaptive bracketing does not plan one bracket "
+                                 "per filter yet; measure with the full bracket",
+                                 rig.file.string()));
   if (need_sphere_mask) {
     calib::RigCalibration cal = calib::RigCalibration::load(dir);
     cal.require({calib::kCameraFile, calib::kSphereFile});  // --adaptive needs the sphere's outline
@@ -80,14 +84,17 @@ void check_resume_camera(const SessionManifest& session, const CameraPreparation
 ColourMap prepare_colour(const RigConfig& rig, dev::PixelFormat format, bool uncalibrated) {
   ColourMap map;
   map.pattern = dev::cfa_pattern(format);
-  if (map.pattern == dev::CfaPattern::None || uncalibrated) return map;  // camera RGB, as recorded
+  const bool wheel = map.pattern == dev::CfaPattern::None && rig.filter_wheel.has_value();
+  if ((map.pattern == dev::CfaPattern::None && !wheel) || uncalibrated) return map;  // camera RGB, as recorded
   const fs::path dir = rig.calibration_dir;
   const fs::path colour_file = dir / calib::kColourFile, scale_file = dir / calib::kScaleFile;
   if (!fs::exists(colour_file))
-    throw DataError(fmt::format("{} is missing: the camera records {} (colour), and its RGB becomes linear sRGB through "
+    throw DataError(fmt::format("{} is missing: the camera records {}, and its RGB becomes linear sRGB through "
                                 "the colour calibration: run `paintlab calibrate colour --rig {} --capture` first (or "
                                 "measure with --uncalibrated for camera RGB)",
-                                colour_file.string(), dev::to_string(format), rig.file.string()));
+                                colour_file.string(),
+                                std::string(dev::to_string(format)) + (wheel ? " behind a filter wheel" : " (colour)"),
+                                rig.file.string()));
   if (!fs::exists(scale_file))
     throw DataError(fmt::format("{} is missing: a colour camera is white-balanced on the white reference: run "
                                 "`paintlab calibrate scale --rig {}` first (or measure with --uncalibrated)",
@@ -136,15 +143,39 @@ SessionManifest make_manifest(const RigConfig& rig, const MeasureSetup& setup, c
   m.devices = in.devices;
   m.options = in.options;
   m.options.pixel_format = dev::to_string(camera.format);
-  if (dev::cfa_pattern(camera.format) != dev::CfaPattern::None) {
+  if (dev::cfa_pattern(camera.format) != dev::CfaPattern::None || rig.filter_wheel) {
     m.options.colour_space = in.options.colour_space.empty() ? colour::kCameraRgb : in.options.colour_space;
-    m.options.demosaic = to_string(DemosaicMethod::Bilinear);
+    m.options.demosaic = rig.filter_wheel ? "none (filter wheel)" : to_string(DemosaicMethod::Bilinear);
   }
   return m;
 }
 
 BracketMerger::BracketMerger(HdrCalibration calibration, int bit_depth, ColourMap colour)
     : calibration_(std::move(calibration)), bit_depth_(bit_depth), colour_(std::move(colour)) {}
+
+ExrImage BracketMerger::merge_per_filter(const std::vector<dev::Frame>& frames) {
+  std::array<std::vector<calib::StackFrame>, 3> stacks;
+  for (const auto& f : frames) {
+    if (f.meta.filter < 0 || f.meta.filter > 2)
+      throw DataError(fmt::format("a filter-wheel bracket has a frame without its filter (filter {})", f.meta.filter));
+    stacks[static_cast<std::size_t>(f.meta.filter)].push_back({&f.pixels, f.meta.exposure_s});
+  }
+  std::array<ExrImage, 3> merged;
+  long long valid = 0, saturated = 0;
+  for (int c = 0; c < 3; ++c) {
+    if (stacks[static_cast<std::size_t>(c)].empty())
+      throw DataError(fmt::format("a filter-wheel bracket has no frame through the {} filter", "RGB"[c]));
+    HdrResult r = merger_->merge(stacks[static_cast<std::size_t>(c)]);
+    valid += r.stats.valid;
+    saturated += r.stats.saturated;
+    merged[static_cast<std::size_t>(c)] = std::move(r.image);
+  }
+  ExrImage rgb = map_colour({&merged[0], &merged[1], &merged[2]}, colour_);
+  rgb.attributes["paintlab.valid_pixels"] = std::to_string(valid / 3);
+  rgb.attributes["paintlab.saturated_pixels"] = std::to_string(saturated);
+  rgb.attributes["paintlab.filters"] = "R, G, B: one bracket each (filter wheel)";
+  return rgb;
+}
 
 std::shared_ptr<const ExrImage> BracketMerger::last_mosaic() const {
   std::lock_guard lock(mutex_);
@@ -165,6 +196,7 @@ MergeFn BracketMerger::function() {
             std::make_unique<HdrMerger>(calibration_, HdrOptions{}, p.width(), p.height(), p.channels(), bit_depth_);
       }
     }
+    if (frames.front().meta.filter >= 0) return merge_per_filter(frames);
     HdrResult r = merger_->merge(stack);
     r.image.attributes["paintlab.valid_pixels"] = std::to_string(r.stats.valid);
     r.image.attributes["paintlab.saturated_pixels"] = std::to_string(r.stats.saturated);

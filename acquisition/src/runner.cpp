@@ -102,8 +102,9 @@ std::string RunSummary::describe(const fs::path& session_dir) const {
   if (frames > 0) {
     const double minimum = physical_min_s();
     s += fmt::format("sweep time on the rig clock: {:.1f} s; physical minimum {:.1f} s (motion {:.1f} + settle {:.1f} + "
-                     "exposure {:.1f} + readout {:.1f}); ratio {:.3f}\n",
+                     "exposure {:.1f} + readout {:.1f}{}); ratio {:.3f}\n",
                      sweep_s, minimum, motion_s, settle_s, exposure_s, readout_s,
+                     wheel_moves > 0 ? fmt::format(" + filter wheel {:.1f} in {} moves", wheel_s, wheel_moves) : "",
                      minimum > 0 ? sweep_s / minimum : 0.0);
     s += fmt::format("frames: {}, retries: {}, wall time {:.1f} s\n", frames, retries, wall_s);
   }
@@ -159,6 +160,10 @@ RunSummary Runner::run(const std::atomic<bool>& stop) {
           e.exposures_s.push_back(f.meta.exposure_s);
           e.frame_ids.push_back(f.meta.frame_id);
           e.timestamps_ns.push_back(f.meta.timestamp_ns);
+          if (wheel_) {
+            e.filters.push_back(std::string(1, "RGB"[std::clamp(f.meta.filter, 0, 2)]));
+            e.filter_slots.push_back(wheel_slots_[static_cast<std::size_t>(std::clamp(f.meta.filter, 0, 2))]);
+          }
         }
         if (options_.keep_raw) {
           fs::path raw = session_.raw_dir(item->index);
@@ -224,6 +229,29 @@ RunSummary Runner::run(const std::atomic<bool>& stop) {
       }
     }
     return false;
+  };
+
+  // Puts the filter of `channel` in front of the lens: moved (retried like every device
+  // operation), then read back; a wheel elsewhere after the retries stops the run.
+  int position_count = 0;
+  auto move_wheel = [&](int channel) {
+    const int slot = wheel_slots_[static_cast<std::size_t>(channel)];
+    const std::string what = fmt::format("{}: move to slot {} ({} filter)", wheel_->id(), slot, "RGB"[channel]);
+    for (int attempt = 0;; ++attempt) {
+      const double t0 = clock.now_s();
+      retry([&] { return wheel_->move_to(slot); }, what);
+      const int at = retry([&] { return wheel_->position(); }, wheel_->id() + ": read position");
+      summary.wheel_s += clock.now_s() - t0;
+      ++summary.wheel_moves;
+      if (at == slot) return;
+      if (attempt >= options_.max_retries)
+        throw StopRun{false, fmt::format("{}: the wheel is at slot {} after {} attempts to reach slot {} ({} filter)",
+                                         wheel_->id(), at, attempt + 1, slot, "RGB"[channel])};
+      ++summary.retries;
+      spdlog::warn("{}: at slot {} instead of {}; retry {} of {}", wheel_->id(), at, slot, attempt + 1,
+                   options_.max_retries);
+      check_stop();
+    }
   };
 
   const std::vector<double>& bracket = plan.exposures_s;
@@ -307,16 +335,23 @@ RunSummary Runner::run(const std::atomic<bool>& stop) {
       }
       cap.led_was_on = true;
       try {
-        for (double e : exposures) {
-          check_stop();
-          double applied = retry([&] { return rig_.camera.set_exposure(e); },
-                                 fmt::format("{}: set exposure {:.6g} s", rig_.camera.id(), e));
-          dev::Frame frame = retry([&] { return rig_.camera.capture(options_.capture_timeout_s); },
-                                   fmt::format("{}: capture at {:.6g} s", rig_.camera.id(), applied));
-          summary.exposure_s += frame.meta.exposure_s;
-          summary.readout_s += rig_.camera.readout_s();
-          ++summary.frames;
-          cap.frames.push_back(std::move(frame));
+        // One bracket, or one per filter (R, G, B, or B, G, R at every other position).
+        const bool reverse = wheel_ && (position_count++ % 2 == 1);
+        for (int k = 0; k < (wheel_ ? 3 : 1); ++k) {
+          const int filter = wheel_ ? (reverse ? 2 - k : k) : -1;
+          if (wheel_) move_wheel(filter);
+          for (double e : exposures) {
+            check_stop();
+            double applied = retry([&] { return rig_.camera.set_exposure(e); },
+                                   fmt::format("{}: set exposure {:.6g} s", rig_.camera.id(), e));
+            dev::Frame frame = retry([&] { return rig_.camera.capture(options_.capture_timeout_s); },
+                                     fmt::format("{}: capture at {:.6g} s", rig_.camera.id(), applied));
+            frame.meta.filter = filter;
+            summary.exposure_s += frame.meta.exposure_s;
+            summary.readout_s += rig_.camera.readout_s();
+            ++summary.frames;
+            cap.frames.push_back(std::move(frame));
+          }
         }
       } catch (...) {
         light_off_safely();

@@ -23,6 +23,7 @@
 #include "paintlab/core/process.h"
 #include "paintlab/core/progress.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/devices/device_config.h"
 #include "paintlab/sim/builtin.h"
 #include "paintlab/brdf/paint.h"
 #include "rig_devices.h"
@@ -128,6 +129,8 @@ int run_measure(const MeasureArgs& a) {
   acq::BracketMerger merge(setup.hdr, dev::bit_depth(cam.format), colour);
   acq::Runner runner(*session, {*devices.turntable, *devices.light, *devices.camera, *devices.clock},
                      merge.function());
+  if (devices.filter_wheel)
+    runner.set_filter_wheel(devices.filter_wheel.get(), dev::filter_wheel_config(*rig.filter_wheel).channel_slot);
   std::unique_ptr<acq::AdaptiveBracketing> planner;
   if (adaptive) {
     planner = acq::make_adaptive_planner(setup, cam, &merge);

@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <fcntl.h>
@@ -250,4 +251,61 @@ TEST_F(MeasureCli, MissingCalibrationSaysWhichStepToRun) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("response.json is missing: run `paintlab calibrate response"));
   EXPECT_FALSE(fs::exists(dir_ / "x"));
+}
+
+// A monochrome camera behind the simulated filter wheel (kind sim: a pty pair behind the real
+// serial driver): every position takes a bracket per filter, the journal says which, and the
+// stored R, G, B are the paint seen through each filter.
+TEST_F(MeasureCli, AFilterWheelMeasuresOneBracketPerFilter) {
+  test::write_text(rig_, test::small_sim_rig(kPositions, 10.0, 4) +
+                             "[devices.filter_wheel]\nkind = \"sim\"\nslot_r = 2\nslot_g = 4\nslot_b = 6\n");
+  // The dark frame and the response (through whichever filter the wheel holds: they are the
+  // sensor's), so that the camera RGB is linear and dark-subtracted; --uncalibrated: no colour
+  // calibration, camera RGB as recorded.
+  for (const char* step : {"dark", "response"}) {
+    auto c = test::run_paintlab(std::string("calibrate ") + step + " --rig " + rig_.string() + " --capture", 120);
+    ASSERT_EQ(c.exit_code, 0) << c.out << c.err;
+  }
+  const fs::path out = dir_ / "session";
+  auto r = test::run_paintlab("measure --uncalibrated --rig " + rig_.string() + " --sample blue --out " + out.string() +
+                              " --sim-paint " + (test::source_dir() / "paints/solid-blue.toml").string());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_THAT(r.out, HasSubstr("filter wheel"));
+  expect_complete_session(out, kPositions);
+  const Json options = read_json_file(out / "session.json")["options"];
+  EXPECT_EQ(options["colour_space"], "linear camera RGB");
+  EXPECT_EQ(options["demosaic"], "none (filter wheel)");
+  const auto entries = acq::SessionDir::open(out).journal().read();
+  ASSERT_EQ(entries.size(), static_cast<std::size_t>(kPositions));
+  EXPECT_EQ(entries[0].filters, (std::vector<std::string>{"R", "R", "R", "R", "G", "G", "G", "G", "B", "B", "B", "B"}));
+  EXPECT_EQ(entries[0].filter_slots, (std::vector<int>{2, 2, 2, 2, 4, 4, 4, 4, 6, 6, 6, 6}));
+  EXPECT_EQ(entries[1].filters.front(), "B");  // the wheel goes back the way it came
+  // On the sphere's lit side (blue above a third of its 99th percentile: the felt and the
+  // backdrop are grey and darker), the channel ratios are the blue paint's diffuse colour (kd
+  // 0.03, 0.06, 0.30) as the sensor (its weights 0.2126, 0.7152, 0.0722 of scene R, G, B) sees
+  // it through each default filter ([sim.filters]).
+  const double kd[3] = {0.03, 0.06, 0.30}, weight[3] = {0.2126, 0.7152, 0.0722};
+  const double filter[3][3] = {{0.92, 0.05, 0.01}, {0.04, 0.90, 0.06}, {0.01, 0.06, 0.88}};
+  double seen[3] = {0, 0, 0};
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k < 3; ++k) seen[c] += weight[k] * filter[c][k] * kd[k];
+  const ExrImage img = read_exr(out / "hdr/pos_002.exr");
+  EXPECT_EQ(img.find("Y"), nullptr);
+  const std::vector<float>& b = img.plane("B").values();
+  std::vector<float> sorted = b;
+  std::sort(sorted.begin(), sorted.end());
+  const float threshold = sorted[sorted.size() * 99 / 100] / 3;
+  std::vector<double> br, gr;
+  for (std::size_t i = 0; i < b.size(); ++i)
+    if (b[i] > threshold && img.plane("valid").values()[i] > 0.5f) {
+      br.push_back(b[i] / img.plane("R").values()[i]);
+      gr.push_back(img.plane("G").values()[i] / img.plane("R").values()[i]);
+    }
+  ASSERT_GT(br.size(), 100u);
+  std::nth_element(br.begin(), br.begin() + static_cast<std::ptrdiff_t>(br.size() / 2), br.end());
+  std::nth_element(gr.begin(), gr.begin() + static_cast<std::ptrdiff_t>(gr.size() / 2), gr.end());
+  std::printf("median B/R %.3f (diffuse %.3f), G/R %.3f (%.3f) over %zu pixels\n", br[br.size() / 2],
+              seen[2] / seen[0], gr[gr.size() / 2], seen[1] / seen[0], br.size());
+  EXPECT_NEAR(br[br.size() / 2], seen[2] / seen[0], 0.03 * seen[2] / seen[0]);
+  EXPECT_NEAR(gr[gr.size() / 2], seen[1] / seen[0], 0.03 * seen[1] / seen[0]);
 }

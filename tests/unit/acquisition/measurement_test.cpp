@@ -240,3 +240,38 @@ TEST(Measurement, SessionsOfVersionOneStillReadAndAColourSpaceIsChecked) {
                   [&] { acq::SessionOptions::from_json(Json{{"colour_space", "sRGB"}}, "s/session.json"); }),
               HasSubstr("colour_space 'sRGB' is none of"));
 }
+
+TEST(Measurement, AFilterWheelPositionIsMergedPerFilterAndMappedWithoutDemosaicing) {
+  acq::ColourMap map;  // no pattern: a monochrome camera behind a wheel
+  map.balance = {2.0, 1.0, 0.5};
+  map.matrix = std::array<double, 9>{1, 0, 0, 0, 1, 0, 0, 0.5, 0.5};
+  acq::BracketMerger merge(acq::HdrCalibration{}, 16, map);
+  std::vector<dev::Frame> frames;
+  const double dn[3] = {400, 1000, 3000};
+  for (int c = 0; c < 3; ++c)
+    for (double t : {0.01, 0.02}) {
+      dev::Frame f;
+      f.pixels = Image<std::uint16_t>(6, 4, 1, static_cast<std::uint16_t>(dn[c] * t / 0.01));
+      f.pixels.at(2, 1) = c == 1 ? 65535 : f.pixels.at(2, 1);  // saturated in green only
+      f.meta.exposure_s = t;
+      f.meta.filter = c;
+      frames.push_back(std::move(f));
+    }
+  const ExrImage rgb = merge.function()(frames);
+  EXPECT_EQ(rgb.find("Y"), nullptr);
+  EXPECT_EQ(rgb.attributes.at("paintlab.filters"), "R, G, B: one bracket each (filter wheel)");
+  // Rates 4e4, 1e5, 3e5 DN/s balanced to 8e4, 1e5, 1.5e5; B = (G + B) / 2.
+  EXPECT_NEAR(rgb.plane("R").at(0, 0), 8e4, 80);
+  EXPECT_NEAR(rgb.plane("G").at(0, 0), 1e5, 100);
+  EXPECT_NEAR(rgb.plane("B").at(0, 0), 1.25e5, 125);
+  EXPECT_EQ(rgb.plane("valid").at(0, 0), 1.0f);
+  // A pixel saturated through one filter is invalid, and so is every output that mixes it in.
+  EXPECT_EQ(rgb.plane("valid").at(2, 1), 0.0f);
+  EXPECT_FALSE(std::isinf(rgb.plane("var.R").at(2, 1)));
+  EXPECT_TRUE(std::isinf(rgb.plane("var.G").at(2, 1)));
+  EXPECT_TRUE(std::isinf(rgb.plane("var.B").at(2, 1)));
+  // A position without one of the filters is refused.
+  frames.resize(4);
+  EXPECT_THAT(test::error_message<DataError>([&] { merge.function()(frames); }),
+              HasSubstr("no frame through the B filter"));
+}

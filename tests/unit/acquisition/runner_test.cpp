@@ -339,3 +339,84 @@ TEST(Runner, BadOptionsAreRefusedBeforeAnythingMoves) {
   EXPECT_EQ(rig.table.moves, 0);
   EXPECT_EQ(rig.camera.captures, 0);
 }
+
+namespace {
+
+// A filter wheel in memory: moves at once, or stays where it is once `stuck` (a jammed wheel:
+// the move is acknowledged, the position read back is not the one asked for).
+class TestWheel final : public dev::FilterWheel {
+ public:
+  std::string id() const override { return "wheel test"; }
+  Result<std::string> identify() override { return std::string("test wheel"); }
+  Result<int> slot_count() override { return 6; }
+  Result<int> position() override { return slot; }
+  Result<void> move_to(int s) override {
+    ++moves;
+    if (!stuck) slot = s;
+    return {};
+  }
+  int slot = 1;
+  int moves = 0;
+  bool stuck = false;
+};
+
+}  // namespace
+
+TEST(Runner, AFilterWheelTakesOneBracketPerFilterAndTheJournalSaysWhich) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(4));
+  RunnerRig rig;
+  TestWheel wheel;
+  std::atomic<bool> stop{false};
+  std::vector<std::vector<int>> filters_seen;
+  Runner runner(s, rig.handles(), [&](const std::vector<dev::Frame>& frames) {
+    std::vector<int> f;
+    for (const auto& fr : frames) f.push_back(fr.meta.filter);
+    filters_seen.push_back(f);
+    return merge_mean(frames);
+  });
+  runner.set_filter_wheel(&wheel, {4, 2, 6});
+  RunSummary sum = runner.run(stop);
+  ASSERT_TRUE(sum.complete) << sum.stop_reason;
+  EXPECT_EQ(sum.frames, 4 * 3 * 3);
+  EXPECT_EQ(sum.wheel_moves, 12);
+  // R, G, B, then B, G, R: the wheel starts where it stopped.
+  ASSERT_EQ(filters_seen.size(), 4u);
+  EXPECT_EQ(filters_seen[0], (std::vector<int>{0, 0, 0, 1, 1, 1, 2, 2, 2}));
+  EXPECT_EQ(filters_seen[1], (std::vector<int>{2, 2, 2, 1, 1, 1, 0, 0, 0}));
+  const auto entries = s.journal().read();
+  ASSERT_EQ(entries.size(), 4u);
+  EXPECT_EQ(entries[1].filters, (std::vector<std::string>{"B", "B", "B", "G", "G", "G", "R", "R", "R"}));
+  EXPECT_EQ(entries[1].filter_slots, (std::vector<int>{6, 6, 6, 2, 2, 2, 4, 4, 4}));
+  EXPECT_EQ(entries[1].exposures_s.size(), 9u);
+  EXPECT_THAT(sum.describe(s.dir()), HasSubstr("filter wheel"));
+  expect_complete(s);
+}
+
+TEST(Runner, AWheelThatDoesNotReachItsSlotIsADeviceFaultThatResumes) {
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(4));
+  std::atomic<bool> stop{false};
+  {
+    RunnerRig rig;
+    TestWheel wheel;
+    Runner runner(s, rig.handles(), merge_mean);
+    runner.set_filter_wheel(&wheel, {1, 2, 3});
+    rig.camera.on_capture = [&](int n) {
+      if (n == 12) wheel.stuck = true;  // jams during the second position
+    };
+    RunSummary sum = runner.run(stop);
+    EXPECT_TRUE(sum.device_fault);
+    EXPECT_THAT(sum.stop_reason, HasSubstr("wheel test: the wheel is at slot"));
+    EXPECT_THAT(sum.stop_reason, HasSubstr("after 4 attempts"));
+    EXPECT_EQ(sum.retries, 3);
+    EXPECT_FALSE(rig.light.state);
+    EXPECT_EQ(sum.measured, 1);
+  }
+  RunnerRig rig;
+  TestWheel wheel;
+  Runner runner(s, rig.handles(), merge_mean);
+  runner.set_filter_wheel(&wheel, {1, 2, 3});
+  EXPECT_TRUE(runner.run(stop).complete);
+  expect_complete(s);
+}

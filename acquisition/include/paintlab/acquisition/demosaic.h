@@ -64,6 +64,13 @@ struct ColourMap {
 // attribute paintlab.colour_space set.
 ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map);
 
+// The colour map alone, for a camera that samples every channel at every pixel (a monochrome
+// camera behind a filter wheel: one merged bracket per filter): three merged images (Y,
+// var.Y, valid each; R, G, B in that order) to R, G, B, var.*, valid (valid where all three
+// are), attribute paintlab.colour_space set. DataError for images of different sizes or
+// without those planes.
+ExrImage map_colour(const std::array<const ExrImage*, 3>& channels, const ColourMap& map);
+
 // The same bilinear interpolation for a linear mosaic without variance (a linearised frame):
 // three channels, camera RGB.
 ImageF demosaic_bilinear(const ImageF& mosaic, dev::CfaPattern pattern);

@@ -22,6 +22,10 @@ struct JournalEntry {
   std::vector<std::uint64_t> frame_ids;
   std::vector<std::uint64_t> timestamps_ns;
   std::vector<std::string> raw_files;  // kept raw frames (--keep-raw), relative paths
+  // A filter-wheel camera: per frame the filter in front ("R", "G", "B") and its wheel slot;
+  // empty otherwise (and in journals written before the wheel).
+  std::vector<std::string> filters;
+  std::vector<int> filter_slots;
   bool led_was_on = false;             // LED read back on during the bracket
   bool led_off_after = false;          // LED read back off after the bracket
   double clock_start_s = 0.0;          // rig clock at the start and end of the position
@@ -30,6 +34,9 @@ struct JournalEntry {
 
   Json to_json() const;
   static JournalEntry from_json(const Json& j, const std::string& where);
+
+ private:
+  static JournalEntry read_fields(const Json& j, const std::string& where);
 };
 
 class Journal {

@@ -52,7 +52,8 @@ void check_resume_camera(const SessionManifest& session, const CameraPreparation
 // reference is grey and one scale still turns radiance into BRDF) and mapped to linear sRGB
 // (D65) by calib/colour.json. `uncalibrated`: camera RGB as it is. DataError for a colour camera
 // without colour.json or without a per-channel scale.json, naming the `paintlab calibrate`
-// step that makes it. A monochrome format gives pattern None (nothing to do).
+// step that makes it. A monochrome camera behind the rig's filter wheel takes the same
+// (pattern None: every channel is sampled at every pixel); without a wheel nothing to do.
 ColourMap prepare_colour(const RigConfig& rig, dev::PixelFormat format, bool uncalibrated);
 
 // What a new session records (session.json): the sample and the people's notes, the rig
@@ -71,6 +72,8 @@ SessionManifest make_manifest(const RigConfig& rig, const MeasureSetup& setup, c
 // by every later bracket; each merged image carries its valid and saturated pixel counts as
 // attributes. A colour camera's bracket (colour.pattern set) is merged as a mosaic and then
 // turned into R, G, B by demosaic_to_colour; the last merged mosaic is kept for the planner.
+// A filter-wheel camera's frames (FrameMeta::filter set) are merged per filter and mapped by
+// `colour` (map_colour).
 class BracketMerger {
  public:
   BracketMerger(HdrCalibration calibration, int bit_depth, ColourMap colour = {});
@@ -81,6 +84,10 @@ class BracketMerger {
   std::shared_ptr<const ExrImage> last_mosaic() const;
 
  private:
+  // A filter-wheel camera's position (frames carrying FrameMeta::filter): one merge per
+  // filter, then the colour map (map_colour).
+  ExrImage merge_per_filter(const std::vector<dev::Frame>& frames);
+
   HdrCalibration calibration_;
   int bit_depth_;
   ColourMap colour_;

@@ -5,6 +5,7 @@
 // hdr/pos_XXX.exr atomically and then journals the position. Capture of the next
 // position overlaps merging of the previous one through a bounded queue.
 // The runner sees only the device interfaces (devices/*.h) and a Clock.
+#include <array>
 #include <atomic>
 #include <filesystem>
 #include <functional>
@@ -15,6 +16,7 @@
 #include "paintlab/core/clock.h"
 #include "paintlab/core/image_io.h"
 #include "paintlab/devices/camera.h"
+#include "paintlab/devices/filter_wheel.h"
 #include "paintlab/devices/light.h"
 #include "paintlab/devices/turntable.h"
 
@@ -71,7 +73,9 @@ struct RunSummary {
   double settle_s = 0.0;        //   settle waits
   double exposure_s = 0.0;      //   sum of applied exposures
   double readout_s = 0.0;       //   frame readouts
-  double physical_min_s() const { return motion_s + settle_s + exposure_s + readout_s; }
+  double wheel_s = 0.0;         //   filter-wheel moves (as long as the wheel took, read on the rig clock)
+  int wheel_moves = 0;
+  double physical_min_s() const { return motion_s + settle_s + exposure_s + readout_s + wheel_s; }
   double wall_s = 0.0;          // wall-clock time of the run
   int frames = 0;
   int retries = 0;
@@ -89,6 +93,15 @@ class Runner {
   Runner(const SessionDir& session, RigHandles rig, MergeFn merge, RunnerOptions options = {});
   void set_planner(ExposurePlanner* planner) { planner_ = planner; }
   void set_progress(Progress* progress) { progress_ = progress; }
+  // A monochrome camera behind a filter wheel: each position takes one bracket per filter, in
+  // the slots given for R, G and B (the order reversed at every other position, so the wheel
+  // starts where it stopped); every frame carries its filter (FrameMeta::filter) and the
+  // journal records it. A wheel that does not reach its slot (read back) after the retries is
+  // a device fault: a safe stop that `--resume` continues.
+  void set_filter_wheel(dev::FilterWheel* wheel, std::array<int, 3> slots) {
+    wheel_ = wheel;
+    wheel_slots_ = slots;
+  }
   // Measures every position not yet finished. Returns when all are finished, when `stop`
   // becomes true (SIGINT/SIGTERM), or after a device fault that retries did not cure;
   // in every case the LED is off, the table stopped and the journal consistent.
@@ -101,6 +114,8 @@ class Runner {
   RunnerOptions options_;
   ExposurePlanner* planner_ = nullptr;
   Progress* progress_ = nullptr;
+  dev::FilterWheel* wheel_ = nullptr;
+  std::array<int, 3> wheel_slots_{1, 2, 3};
 };
 
 }  // namespace paintlab::acq

@@ -48,6 +48,9 @@ struct FrameMeta {
   std::uint64_t frame_id = 0;   // the camera's frame (block) id
   std::uint64_t timestamp_ns = 0;  // camera timestamp
   PixelFormat format = PixelFormat::Mono16;
+  // A monochrome camera behind a filter wheel: the colour channel of the filter in front when
+  // the frame was taken (0 R, 1 G, 2 B; set by the measurement runner), -1 none.
+  int filter = -1;
 };
 
 struct Frame {
