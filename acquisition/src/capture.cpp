@@ -274,25 +274,29 @@ Shot ShotCapture::capture(const ShotRequest& q, Linearizer& linearizer) {
   dev::Camera& cam = *d_.camera;
   if (bit_depth_ == 0) bit_depth_ = dev::bit_depth(value_or_throw(cam.pixel_format()));
   const HdrCalibration& hdr = linearizer.calibration();
+  // One frame at the asked exposure, or auto-exposed from where this step's last one ended.
+  auto take = [&](const std::string& filter) {
+    if (q.exposure_s) {
+      value_or_throw(cam.set_exposure(*q.exposure_s));
+      return value_or_throw(cam.capture(capture_timeout_s(*q.exposure_s)));
+    }
+    const std::string key = fmt::format("{}/{}{}", q.step, q.led_on ? "on" : "off", filter);
+    AutoExposureOptions ae;
+    ae.fill = q.fill;
+    ae.quantile = q.quantile;
+    ae.black_dn = hdr.dark ? hdr.dark->mean_bias_dn : 0.0;
+    ae.tolerance = tolerance_;
+    const auto previous = last_exposure_s_.find(key);
+    if (previous != last_exposure_s_.end()) ae.start_s = previous->second;
+    AutoExposure found = auto_expose(cam, ae);
+    last_exposure_s_[key] = found.frame.meta.exposure_s;
+    return std::move(found.frame);
+  };
+  if (d_.wheel) return capture_through_wheel(q, linearizer, take);
   dev::Frame frame;
   {
     LightSwitch led(*d_.light, q.led_on);
-    if (q.exposure_s) {
-      value_or_throw(cam.set_exposure(*q.exposure_s));
-      frame = value_or_throw(cam.capture(capture_timeout_s(*q.exposure_s)));
-    } else {
-      const std::string key = fmt::format("{}/{}", q.step, q.led_on ? "on" : "off");
-      AutoExposureOptions ae;
-      ae.fill = q.fill;
-      ae.quantile = q.quantile;
-      ae.black_dn = hdr.dark ? hdr.dark->mean_bias_dn : 0.0;
-      ae.tolerance = tolerance_;
-      const auto previous = last_exposure_s_.find(key);
-      if (previous != last_exposure_s_.end()) ae.start_s = previous->second;
-      AutoExposure found = auto_expose(cam, ae);
-      last_exposure_s_[key] = found.frame.meta.exposure_s;
-      frame = std::move(found.frame);
-    }
+    frame = take("");
     led.off();
   }
   Shot shot;
@@ -334,6 +338,56 @@ Shot ShotCapture::capture(const ShotRequest& q, Linearizer& linearizer) {
   shot.file = dir / (q.name + ".png");
   write_png(shot.file, shot.raw, 16);
   captured_.push_back(shot.file);
+  return shot;
+}
+
+Shot ShotCapture::capture_through_wheel(const ShotRequest& q, Linearizer& linearizer,
+                                        const std::function<dev::Frame(const std::string&)>& take) {
+  std::array<dev::Frame, 3> frames;
+  {
+    LightSwitch led(*d_.light, q.led_on);
+    for (int c = 0; c < 3; ++c) {
+      const int slot = d_.wheel_slots[static_cast<std::size_t>(c)];
+      value_or_throw(d_.wheel->move_to(slot));
+      const int at = value_or_throw(d_.wheel->position());
+      if (at != slot)
+        throw DeviceError(d_.wheel->id(),
+                          fmt::format("at slot {} after the move to slot {} ({} filter)", at, slot, "RGB"[c]), false);
+      frames[static_cast<std::size_t>(c)] = take(std::string("/") + "RGB"[c]);
+    }
+    led.off();
+  }
+  Shot shot;
+  shot.name = q.name;
+  shot.bit_depth = bit_depth_;
+  shot.per_second = true;
+  shot.table_angle_deg = q.angle_deg;
+  const fs::path dir = dir_ / q.step;
+  fs::create_directories(dir);
+  std::array<ImageF, 3> rate;
+  for (int c = 0; c < 3; ++c) {
+    dev::Frame& f = frames[static_cast<std::size_t>(c)];
+    Linearizer::Linear lin = linearizer.linearise(f.pixels, shot.bit_depth, f.meta.exposure_s);
+    rate[static_cast<std::size_t>(c)] = std::move(lin.rate);
+    if (shot.saturated.empty()) shot.saturated = Image<std::uint8_t>(lin.saturated.width(), lin.saturated.height(), 1, 0);
+    for (std::size_t i = 0; i < shot.saturated.size(); ++i) shot.saturated.values()[i] |= lin.saturated.values()[i];
+    const fs::path file = dir / fmt::format("{}_{}.png", q.name, "RGB"[c]);
+    write_png(file, f.pixels, 16);
+    captured_.push_back(file);
+    if (c == 1) {  // the green frame stands for the shot (its file, its exposure)
+      shot.file = file;
+      shot.exposure_s = f.meta.exposure_s;
+      shot.raw = std::move(f.pixels);
+    }
+  }
+  const int w = rate[0].width(), h = rate[0].height();
+  shot.rgb = ImageF(w, h, 3);
+  shot.rate = ImageF(w, h, 1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      for (int c = 0; c < 3; ++c) shot.rgb.at(x, y, c) = rate[static_cast<std::size_t>(c)].at(x, y);
+      shot.rate.at(x, y) = 0.25f * (rate[0].at(x, y) + 2.0f * rate[1].at(x, y) + rate[2].at(x, y));
+    }
   return shot;
 }
 

@@ -183,7 +183,9 @@ CalibSession open_calib_session(const RigConfig& rig, double albedo) {
   value_or_throw(s.camera().set_gain_db(rig.plan.gain_db));
   RigDevices& d = *s.devices;
   s.shots = std::make_unique<acq::ShotCapture>(
-      acq::ShotCapture::Devices{d.turntable.get(), d.light.get(), d.camera.get(), d.clock},
+      acq::ShotCapture::Devices{d.turntable.get(), d.light.get(), d.camera.get(), d.clock, d.filter_wheel.get(),
+                                rig.filter_wheel ? dev::filter_wheel_config(*rig.filter_wheel).channel_slot
+                                                 : std::array<int, 3>{1, 2, 3}},
       rig.calibration_dir / "captures", rig.plan.settle_s);
   return s;
 }

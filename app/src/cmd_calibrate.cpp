@@ -441,10 +441,10 @@ void register_calibrate_commands(CLI::App& app) {
           calib::require_step_inputs(c.rig.calibration_dir, step, c.rig.file);
           runners->at(step)(c);
         }
-        // A colour camera's colour matrix last (linearised with everything above): the chart
-        // captured, or DIR/colour/ when it holds the chart's images.
-        const bool colour = dev::cfa_pattern(dev::camera_config(c.rig.camera, c.rig.geometry).pixel_format) !=
-                            dev::CfaPattern::None;
+        // A colour camera's (or filter wheel's) colour matrix last (linearised with everything
+        // above): the chart captured, or DIR/colour/ when it holds the chart's images.
+        const bool colour = c.rig.filter_wheel || dev::cfa_pattern(dev::camera_config(c.rig.camera, c.rig.geometry)
+                                                                      .pixel_format) != dev::CfaPattern::None;
         if (colour && (c.session || fs::is_directory(*c.images_dir / "colour"))) {
           say("== colour ==");
           const calib::ColourCalibration cal = acq::colour_step(

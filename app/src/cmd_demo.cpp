@@ -206,7 +206,8 @@ int run_demo(const DemoArgs& a) {
   Json summary;
   summary["paint"] = name;
   summary["truth"] = brdf::to_json(paint.spec);
-  summary["camera"] = dev::to_string(dev::camera_config(rig.camera, rig.geometry).pixel_format);
+  summary["camera"] = std::string(dev::to_string(dev::camera_config(rig.camera, rig.geometry).pixel_format)) +
+                      (rig.filter_wheel ? " behind a filter wheel" : "");
   const auto& w = truth.camera.mono_weights;  // a monochrome camera measures the paint through them
   if (camera == sim::DemoCamera::Mono)
     summary["truth_seen_by_camera"] = brdf::to_json(brdf::seen_in_mono(paint.spec, brdf::Rgb(w[0], w[1], w[2])));
@@ -244,7 +245,9 @@ void register_demo_commands(CLI::App& app) {
   sets_fields(d->add_option("--lobes", a->lobes, "Cook-Torrance lobes to fit (default: the paint's, at most 3)"),
               {"CtFitOptions::lobes"});
   d->add_flag("--keep-going", a->keep_going, "Measure even when the rig check fails");
-  d->add_option("--camera", a->camera, "bayer: a BayerRG16 colour camera (R, G, B in linear sRGB); mono: Mono16")
+  d->add_option("--camera", a->camera,
+                "bayer: a BayerRG16 colour camera; wheel: Mono16 behind a filter wheel (both R, G, B in linear sRGB); "
+                "mono: Mono16")
       ->capture_default_str();
   sets_fields(d->add_option("--max-iterations", a->max_iterations,
                             "Iterations of the fit's final solve (paintlab fit --max-iterations); a fit that stops "

@@ -50,12 +50,15 @@ void set_key(toml::table& rig, std::string_view path, T value) {
 
 }  // namespace
 
-const char* to_string(DemoCamera c) { return c == DemoCamera::Mono ? "mono" : "bayer"; }
+const char* to_string(DemoCamera c) {
+  return c == DemoCamera::Mono ? "mono" : c == DemoCamera::Bayer ? "bayer" : "wheel";
+}
 
 DemoCamera demo_camera_from_string(const std::string& s, const std::string& option) {
-  if (s == "mono") return DemoCamera::Mono;
-  if (s == "bayer") return DemoCamera::Bayer;
-  throw UsageError(fmt::format("{} {}: one of bayer (a colour camera), mono", option, s));
+  for (DemoCamera c : {DemoCamera::Mono, DemoCamera::Bayer, DemoCamera::Wheel})
+    if (s == to_string(c)) return c;
+  throw UsageError(
+      fmt::format("{} {}: one of bayer (a colour camera), wheel (monochrome behind a filter wheel), mono", option, s));
 }
 
 std::string demo_rig_toml(bool quick, DemoCamera camera) {
@@ -69,8 +72,12 @@ std::string demo_rig_toml(bool quick, DemoCamera camera) {
     rig.at_path("sim.camera").as_table()->insert_or_assign(
         "rgb_matrix", toml::array{0.82, 0.22, -0.04, 0.08, 0.86, 0.06, 0.03, 0.17, 0.80});
     rig.at_path("sim.camera").as_table()->insert_or_assign("rgb_gain", toml::array{0.55, 1.0, 0.75});
-    rig.at_path("sim.led").as_table()->insert_or_assign("color", toml::array{1.0, 0.96, 0.86});
   }
+  if (camera == DemoCamera::Wheel)
+    rig.at_path("devices").as_table()->insert_or_assign(
+        "filter_wheel", toml::table{{"kind", "sim"}, {"slot_r", 1}, {"slot_g", 2}, {"slot_b", 3}, {"settle_ms", 50}});
+  if (camera != DemoCamera::Mono)
+    rig.at_path("sim.led").as_table()->insert_or_assign("color", toml::array{1.0, 0.96, 0.86});
   if (quick) {
     const RigConfig full = RigConfig::parse(ConfigTable::parse_string(text, "rig-sim.toml"), "rig-sim.toml");
     const SimConfig truth = SimConfig::from_rig(full);
@@ -96,7 +103,9 @@ std::string demo_rig_toml(bool quick, DemoCamera camera) {
                   "docs/rig.md.\n")
       << (camera == DemoCamera::Bayer ? "# The camera: a BayerRG16 colour camera with its own channel mix, under a warm "
                                         "LED (paintlab demo --camera bayer).\n"
-                                      : "")
+          : camera == DemoCamera::Wheel ? "# The camera: the monochrome camera behind a simulated filter wheel, under a "
+                                          "warm LED (paintlab demo --camera wheel).\n"
+                                        : "")
       // Shortest round-tripping numbers (0.6, not 0.59999999999999998), strings in double quotes.
       << toml::toml_formatter(rig, (toml::toml_formatter::default_flags & ~toml::format_flags::allow_literal_strings) |
                                        toml::format_flags::relaxed_float_precision)

@@ -63,6 +63,12 @@ TEST(Builtin, TheColourDemoRigHasABayerCameraWithItsOwnMixUnderAWarmLed) {
   const RigConfig mono = parse_rig_text(sim::demo_rig_toml(true, sim::DemoCamera::Mono));
   EXPECT_EQ(dev::camera_config(mono.camera, mono.geometry).pixel_format, dev::PixelFormat::Mono16);
   EXPECT_EQ(sim::demo_camera_from_string("bayer", "--camera"), sim::DemoCamera::Bayer);
+  // The filter-wheel camera: the monochrome one behind a simulated wheel, R, G, B in slots 1-3.
+  const RigConfig wheel = parse_rig_text(sim::demo_rig_toml(true, sim::DemoCamera::Wheel));
+  EXPECT_EQ(dev::camera_config(wheel.camera, wheel.geometry).pixel_format, dev::PixelFormat::Mono16);
+  ASSERT_TRUE(wheel.filter_wheel.has_value());
+  EXPECT_EQ(dev::filter_wheel_config(*wheel.filter_wheel).channel_slot, (std::array<int, 3>{1, 2, 3}));
+  EXPECT_EQ(wheel.filter_wheel->kind, "sim");
   EXPECT_THAT(test::error_message<UsageError>([] { sim::demo_camera_from_string("rgb", "demo --camera"); }),
               ::testing::HasSubstr("demo --camera rgb: one of bayer"));
 }

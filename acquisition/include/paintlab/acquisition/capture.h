@@ -6,6 +6,7 @@
 // sees only the device interfaces (devices/*.h) and a Clock; app/ chooses the drivers and
 // the stage (the simulator or a technician at the console).
 #include <array>
+#include <functional>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -20,6 +21,7 @@
 #include "paintlab/core/clock.h"
 #include "paintlab/core/image.h"
 #include "paintlab/devices/camera.h"
+#include "paintlab/devices/filter_wheel.h"
 #include "paintlab/devices/light.h"
 #include "paintlab/devices/turntable.h"
 
@@ -212,6 +214,11 @@ class ShotCapture {
     dev::Light* light = nullptr;
     dev::Camera* camera = nullptr;
     Clock* clock = nullptr;
+    // A monochrome camera behind a filter wheel: every shot is taken once per filter (each
+    // auto-exposed on its own) and becomes a colour shot: `rgb` the three per-second images,
+    // `rate` their luminance (R + 2 G + B) / 4, `saturated` where any of them clipped.
+    dev::FilterWheel* wheel = nullptr;
+    std::array<int, 3> wheel_slots{1, 2, 3};  // R, G, B
   };
   // `settle_s`: wait after each move (the plan's settle time); `tolerance`: the
   // auto-exposure tolerance (AutoExposureOptions::tolerance).
@@ -231,6 +238,8 @@ class ShotCapture {
   std::vector<std::filesystem::path> captured_;
   // A colour camera's gains (acq::grey_gains), from the last shot that showed enough grey.
   std::optional<std::array<double, 3>> cfa_gains_;
+  Shot capture_through_wheel(const ShotRequest& request, Linearizer& linearizer,
+                             const std::function<dev::Frame(const std::string&)>& take);
 };
 
 }  // namespace paintlab::acq

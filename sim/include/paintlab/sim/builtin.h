@@ -23,11 +23,13 @@ struct SimulatedPaint {
 };
 SimulatedPaint simulated_paint(const std::string& file, const std::string& option);
 
-// The camera of the demo's rig: the built-in rig's monochrome Mono16 camera, or a colour
-// camera in its place (BayerRG16 behind a channel mix unlike sRGB, with gains of its own,
-// under a warm LED: docs/simulator.md), which the colour calibration has to undo.
-enum class DemoCamera { Mono, Bayer };
-const char* to_string(DemoCamera c);  // "mono", "bayer"
+// The camera of the demo's rig: the built-in rig's monochrome Mono16 camera, a colour camera
+// in its place (BayerRG16 behind a channel mix unlike sRGB, with gains of its own: docs/
+// simulator.md), or the monochrome camera behind a simulated filter wheel (R, G, B filters in
+// slots 1, 2, 3 on a pty pair). The colour ones measure under a warm LED, which the colour
+// calibration has to undo.
+enum class DemoCamera { Mono, Bayer, Wheel };
+const char* to_string(DemoCamera c);  // "mono", "bayer", "wheel"
 DemoCamera demo_camera_from_string(const std::string& s, const std::string& option);  // UsageError naming option
 
 // The rig `paintlab demo` writes: the built-in rig with its calibration folder "calib"
