@@ -198,3 +198,29 @@ TEST(AdaptiveBracketing, KeepsOnlyTheExposuresThatSeeTheRadianceRange) {
   EXPECT_EQ(planner.choose(bracket, &s).front(), 1e-5);
   EXPECT_THROW(acq::AdaptiveBracketing(acq::AdaptiveOptions{}, Image<std::uint8_t>()), UsageError);
 }
+
+TEST(AdaptiveBracketing, AColourCameraIsPlannedOnItsMosaicSoEachColourKeepsItsExposures) {
+  acq::AdaptiveOptions o;
+  o.linear_floor = 4;
+  o.linear_saturation = 4000;
+  o.margin = 1.0;
+  o.max_information_loss = 0.0;
+  acq::AdaptiveBracketing planner(o, Image<std::uint8_t>());
+  const std::vector<double> bracket{1e-5, 1e-3, 1e-2, 1.0};
+  // What the runner stores of a colour position: R, G, B in linear sRGB, no Y: on its own the
+  // planner cannot plan from it and keeps the full bracket.
+  ExrImage stored;
+  stored.add("R", ImageF(2, 1, 1, 1e4f));
+  EXPECT_EQ(planner.choose(bracket, &stored), bracket);
+  // Given the merger's mosaic, every site is planned as the pixel it is: a blue site of 1e2
+  // DN/s needs 1 s next to a red one of 1e5 that needs 1 ms and 10 ms.
+  auto mosaic = std::make_shared<ExrImage>();
+  ImageF y(2, 1, 1);
+  y.data()[0] = 1e5f;
+  y.data()[1] = 1e2f;
+  mosaic->add("Y", y);
+  planner.predict_from([mosaic] { return mosaic; });
+  EXPECT_EQ(planner.choose(bracket, &stored), (std::vector<double>{1e-3, 1e-2, 1.0}));
+  // The first position (nothing stored yet) still takes the full bracket.
+  EXPECT_EQ(planner.choose(bracket, nullptr), bracket);
+}
