@@ -190,6 +190,50 @@ void BM_OursMerge8BitRgb(benchmark::State& state) {
   state.counters["threads"] = static_cast<double>(state.range(0));
 }
 
+// One-plane raw frames of the log-uniform scene at exposures `t`: black + (max - black) R(e)
+// with e the exposure (clipped at 1), shot noise (0.3 DN per DN) and read noise of
+// sqrt(read_var) DN; their size in bytes is added to `bytes`.
+template <class Response>
+std::vector<Image<std::uint16_t>> raw_stack(const std::vector<double>& t, std::uint64_t seed, double black,
+                                            double max_dn, double read_var, Response response, std::size_t* bytes) {
+  const std::vector<float> x = scene(kWidth * kHeight, seed);
+  std::mt19937_64 rng(seed + 1);
+  std::normal_distribution<float> noise(0.0f, 1.0f);
+  std::vector<Image<std::uint16_t>> images;
+  for (double ti : t) {
+    Image<std::uint16_t> img(kWidth, kHeight, 1);
+    for (std::size_t i = 0; i < img.size(); ++i) {
+      const double v = black + (max_dn - black) * response(std::min(1.0, x[i] * ti / 1000.0));
+      img.data()[i] =
+          static_cast<std::uint16_t>(std::clamp(std::round(v + std::sqrt(v * 0.3 + read_var) * noise(rng)), 0.0, max_dn));
+    }
+    *bytes += img.size() * sizeof(std::uint16_t);
+    images.push_back(std::move(img));
+  }
+  return images;
+}
+
+// A uniform dark map (bias `black`, dark current `rate` DN/s) and a flat with 10 % vignetting.
+void add_dark_and_flat(acq::HdrCalibration& cal, int bit_depth, double black, float rate, double read_noise) {
+  calib::DarkFrame d;
+  d.bit_depth = bit_depth;
+  d.bias_dn = ImageF(kWidth, kHeight, 1, static_cast<float>(black));
+  d.rate_dn_per_s = ImageF(kWidth, kHeight, 1, rate);
+  d.hot = ImageU8(kWidth, kHeight, 1, 0);
+  d.read_noise_dn = read_noise;
+  d.read_noise_measured = true;
+  d.mean_bias_dn = black;
+  calib::FlatField f;
+  f.gain = ImageF(kWidth, kHeight, 1, 1.0f);
+  for (int y = 0; y < kHeight; ++y)
+    for (int x = 0; x < kWidth; ++x) {
+      const double rx = (x - kWidth / 2.0) / kWidth, ry = (y - kHeight / 2.0) / kWidth;
+      f.gain.at(x, y) = static_cast<float>(1.1 - 0.4 * (rx * rx + ry * ry));
+    }
+  cal.dark = d;
+  cal.flat = f;
+}
+
 // --- 16-bit mono: the rig's camera ------------------------------------------------------
 
 struct MonoStack {
@@ -204,20 +248,9 @@ const MonoStack& mono_stack() {
   static MonoStack s = [] {
     MonoStack s;
     s.t = bracket();
-    const std::vector<float> x = scene(kWidth * kHeight, 21);
-    std::mt19937_64 rng(22);
-    std::normal_distribution<float> noise(0.0f, 1.0f);
     const double black = 1000.0, span = 65535.0 - black;
-    for (double t : s.t) {
-      Image<std::uint16_t> img(kWidth, kHeight, 1);
-      for (std::size_t i = 0; i < img.size(); ++i) {
-        const double e = std::min(1.0, x[i] * t / 1000.0);
-        const double v = black + span * (1.12 * e - 0.16 * e * e + 0.04 * e * e * e);
-        img.data()[i] = static_cast<std::uint16_t>(std::clamp(std::round(v + std::sqrt(v * 0.3 + 100.0) * noise(rng)), 0.0, 65535.0));
-      }
-      s.input_bytes += img.size() * sizeof(std::uint16_t);
-      s.images.push_back(std::move(img));
-    }
+    s.images = raw_stack(s.t, 21, black, 65535.0, 100.0,
+                         [](double e) { return 1.12 * e - 0.16 * e * e + 0.04 * e * e * e; }, &s.input_bytes);
     calib::ResponseCurve r;
     r.bit_depth = 16;
     r.channels = 1;
@@ -236,24 +269,8 @@ const MonoStack& mono_stack() {
     }
     r.noise = {10.0, 0.3, "benchmark"};
     s.response_only.response = r;
-    calib::DarkFrame d;
-    d.bit_depth = 16;
-    d.bias_dn = ImageF(kWidth, kHeight, 1, static_cast<float>(black));
-    d.rate_dn_per_s = ImageF(kWidth, kHeight, 1, 2.0f);
-    d.hot = ImageU8(kWidth, kHeight, 1, 0);
-    d.read_noise_dn = 10.0;
-    d.read_noise_measured = true;
-    d.mean_bias_dn = black;
-    calib::FlatField f;
-    f.gain = ImageF(kWidth, kHeight, 1, 1.0f);
-    for (int y = 0; y < kHeight; ++y)
-      for (int x2 = 0; x2 < kWidth; ++x2) {
-        const double rx = (x2 - kWidth / 2.0) / kWidth, ry = (y - kHeight / 2.0) / kWidth;
-        f.gain.at(x2, y) = static_cast<float>(1.1 - 0.4 * (rx * rx + ry * ry));
-      }
     s.full = s.response_only;
-    s.full.dark = d;
-    s.full.flat = f;
+    add_dark_and_flat(s.full, 16, black, 2.0f, 10.0);
     return s;
   }();
   return s;
@@ -307,20 +324,8 @@ const BayerStack& bayer_stack() {
   static BayerStack s = [] {
     BayerStack s;
     s.t = bracket();
-    const std::vector<float> x = scene(kWidth * kHeight, 31);
-    std::mt19937_64 rng(32);
-    std::normal_distribution<float> noise(0.0f, 1.0f);
     const double black = 64.0, span = 4095.0 - black;
-    for (double t : s.t) {
-      Image<std::uint16_t> img(kWidth, kHeight, 1);
-      for (std::size_t i = 0; i < img.size(); ++i) {
-        const double e = std::min(1.0, x[i] * t / 1000.0);
-        const double v = black + span * e;
-        img.data()[i] = static_cast<std::uint16_t>(std::clamp(std::round(v + std::sqrt(v * 0.3 + 10.0) * noise(rng)), 0.0, 4095.0));
-      }
-      s.input_bytes += img.size() * sizeof(std::uint16_t);
-      s.images.push_back(std::move(img));
-    }
+    s.images = raw_stack(s.t, 31, black, 4095.0, 10.0, [](double e) { return e; }, &s.input_bytes);
     calib::ResponseCurve r;
     r.bit_depth = 12;
     r.channels = 1;
@@ -334,24 +339,8 @@ const BayerStack& bayer_stack() {
     }
     r.noise = {3.0, 0.3, "benchmark"};
     s.full.response = r;
-    calib::DarkFrame d;
-    d.bit_depth = 12;
-    d.bias_dn = ImageF(kWidth, kHeight, 1, static_cast<float>(black));
-    d.rate_dn_per_s = ImageF(kWidth, kHeight, 1, 0.5f);
-    d.hot = ImageU8(kWidth, kHeight, 1, 0);
-    d.read_noise_dn = 3.0;
-    d.read_noise_measured = true;
-    d.mean_bias_dn = black;
-    calib::FlatField f;
-    f.gain = ImageF(kWidth, kHeight, 1, 1.0f);
-    for (int y = 0; y < kHeight; ++y)
-      for (int x2 = 0; x2 < kWidth; ++x2) {
-        const double rx = (x2 - kWidth / 2.0) / kWidth, ry = (y - kHeight / 2.0) / kWidth;
-        f.gain.at(x2, y) = static_cast<float>(1.1 - 0.4 * (rx * rx + ry * ry));
-      }
-    f.cfa = std::array<int, 4>{0, 1, 1, 2};
-    s.full.dark = d;
-    s.full.flat = f;
+    add_dark_and_flat(s.full, 12, black, 0.5f, 3.0);
+    s.full.flat->cfa = std::array<int, 4>{0, 1, 1, 2};
     const std::array<double, 9> m{1.6, -0.5, -0.1, -0.2, 1.4, -0.2, 0.0, -0.4, 1.4};
     s.map.pattern = dev::CfaPattern::RG;
     s.map.balance = {1.8, 1.0, 1.3};

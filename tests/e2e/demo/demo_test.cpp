@@ -22,16 +22,25 @@ namespace {
 
 double rel(double fit, double truth) { return std::abs(fit - truth) / std::abs(truth); }
 
+// Runs `paintlab demo --quick ARGS --out OUT`, which must succeed, prints its summary table
+// and returns its output.
+std::string quick_demo(const std::string& args, const fs::path& out) {
+  auto r = test::run_paintlab("demo --quick " + args + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto table = r.out.find("== paintlab demo");
+  std::cout << (table == std::string::npos ? r.out : r.out.substr(table)) << "\n";
+  return r.out;
+}
+
 }  // namespace
 
 TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
   test::TempDir dir;
   const fs::path out = dir / "demo";
-  auto r = test::run_paintlab("demo --quick --out " + out.string());
-  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  std::cout << r.out.substr(r.out.find("== paintlab demo")) << "\n";
-  EXPECT_THAT(r.out, HasSubstr("$ paintlab calibrate all"));
-  EXPECT_THAT(r.out, HasSubstr("demo finished in"));
+  const std::string output = quick_demo("", out);
+  ASSERT_FALSE(HasFailure());
+  EXPECT_THAT(output, HasSubstr("$ paintlab calibrate all"));
+  EXPECT_THAT(output, HasSubstr("demo finished in"));
 
   const Json s = read_json_file(out / "summary.json");
   // The contract's keys.
@@ -73,7 +82,7 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
   // reports it.)
   EXPECT_EQ(s["camera"], "BayerRG16");
   EXPECT_FALSE(s.contains("truth_seen_by_camera"));
-  EXPECT_THAT(r.out, HasSubstr("R, G, B in linear sRGB (D65)"));
+  EXPECT_THAT(output, HasSubstr("R, G, B in linear sRGB (D65)"));
   const Json& truth = s["truth"];
   const Json& fit = s["fit"];
   ASSERT_EQ(fit["lobes"].size(), truth["lobes"].size());
@@ -102,11 +111,10 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
 TEST(DemoCli, TheFilterWheelCameraMeasuresThePaintInColour) {
   test::TempDir dir;
   const fs::path out = dir / "demo";
-  auto r = test::run_paintlab("demo --quick --camera wheel --out " + out.string());
-  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  std::cout << r.out.substr(r.out.find("== paintlab demo")) << "\n";
-  EXPECT_THAT(r.out, HasSubstr("filter wheel"));
-  EXPECT_THAT(r.out, HasSubstr("== colour =="));
+  const std::string output = quick_demo("--camera wheel", out);
+  ASSERT_FALSE(HasFailure());
+  EXPECT_THAT(output, HasSubstr("filter wheel"));
+  EXPECT_THAT(output, HasSubstr("== colour =="));
   const Json s = read_json_file(out / "summary.json");
   EXPECT_EQ(s["camera"], "Mono16 behind a filter wheel");
   const Json& truth = s["truth"];
