@@ -29,6 +29,16 @@ AdaptiveBracketing::AdaptiveBracketing(AdaptiveOptions options, Image<std::uint8
   options_.check();
 }
 
+std::vector<double> AdaptiveBracketing::choose_for_filter(int filter, const std::vector<double>& bracket_s,
+                                                         const ExrImage* previous) {
+  if (!filter_source_) return choose(bracket_s, previous);
+  last_worst_loss_ = 0.0;
+  if (!previous) return bracket_s;  // the first position: the full bracket through every filter
+  const std::shared_ptr<const ExrImage> merged = filter_source_(filter);
+  if (!merged) return bracket_s;
+  return choose(bracket_s, merged.get());  // that filter's merge, planned as a monochrome image
+}
+
 std::vector<double> AdaptiveBracketing::choose(const std::vector<double>& bracket_s, const ExrImage* previous) {
   last_worst_loss_ = 0.0;
   if (!previous || bracket_s.empty()) return bracket_s;

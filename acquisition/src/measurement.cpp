@@ -41,10 +41,6 @@ MeasureSetup prepare_measurement(const RigConfig& rig, bool uncalibrated, bool n
   for (const char* name :
        {calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile, calib::kColourFile})
     use(name, "", false);
-  if (need_sphere_mask && rig.filter_wheel)
-    throw UsageError(fmt::format("--adaptive: {} has a filter wheel, and adaptive bracketing does not plan one bracket "
-                                 "per filter yet; measure with the full bracket",
-                                 rig.file.string()));
   if (need_sphere_mask) {
     calib::RigCalibration cal = calib::RigCalibration::load(dir);
     cal.require({calib::kCameraFile, calib::kSphereFile});  // --adaptive needs the sphere's outline
@@ -171,10 +167,24 @@ ExrImage BracketMerger::merge_per_filter(const std::vector<dev::Frame>& frames) 
     merged[static_cast<std::size_t>(c)] = std::move(r.image);
   }
   ExrImage rgb = map_colour({&merged[0], &merged[1], &merged[2]}, colour_);
+  {
+    std::lock_guard lock(mutex_);
+    for (std::size_t c = 0; c < 3; ++c) {
+      auto kept = std::make_shared<ExrImage>();
+      kept->add("Y", std::move(*merged[c].find("Y")));
+      kept->add("valid", std::move(*merged[c].find("valid")));
+      last_filter_[c] = std::move(kept);
+    }
+  }
   rgb.attributes["paintlab.valid_pixels"] = std::to_string(valid / 3);
   rgb.attributes["paintlab.saturated_pixels"] = std::to_string(saturated);
   rgb.attributes["paintlab.filters"] = "R, G, B: one bracket each (filter wheel)";
   return rgb;
+}
+
+std::shared_ptr<const ExrImage> BracketMerger::last_filter_merge(int c) const {
+  std::lock_guard lock(mutex_);
+  return c >= 0 && c < 3 ? last_filter_[static_cast<std::size_t>(c)] : nullptr;
 }
 
 std::shared_ptr<const ExrImage> BracketMerger::last_mosaic() const {
@@ -215,7 +225,7 @@ MergeFn BracketMerger::function() {
 }
 
 std::unique_ptr<AdaptiveBracketing> make_adaptive_planner(const MeasureSetup& setup, const CameraPreparation& camera,
-                                                          const BracketMerger* merger) {
+                                                          const BracketMerger* merger, bool filter_wheel) {
   AdaptiveOptions o;
   const double full_scale = std::ldexp(1.0, dev::bit_depth(camera.format)) - 1.0;
   if (setup.hdr.response) {
@@ -235,6 +245,10 @@ std::unique_ptr<AdaptiveBracketing> make_adaptive_planner(const MeasureSetup& se
   if (dev::cfa_pattern(camera.format) != dev::CfaPattern::None) {
     if (!merger) throw std::logic_error("make_adaptive_planner: a colour camera's planner needs its BracketMerger");
     planner->predict_from([merger] { return merger->last_mosaic(); });
+  }
+  if (filter_wheel) {
+    if (!merger) throw std::logic_error("make_adaptive_planner: a filter wheel's planner needs its BracketMerger");
+    planner->predict_per_filter([merger](int c) { return merger->last_filter_merge(c); });
   }
   return planner;
 }

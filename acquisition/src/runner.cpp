@@ -311,21 +311,24 @@ RunSummary Runner::run(const std::atomic<bool>& stop) {
       }
       summary.settle_s += plan.settle_s;
 
-      std::vector<double> exposures = bracket;
-      if (planner_) {
+      // The bracket of this position (of one filter's, with a wheel): the planner's choice.
+      auto exposures_for = [&](int filter) {
+        if (!planner_) return bracket;
         std::shared_ptr<const ExrImage> prev;
         {
           std::lock_guard lock(merged_mutex);
           prev = last_merged;
         }
-        exposures = planner_->choose(bracket, prev.get());
-        double readout = rig_.camera.readout_s();
+        std::vector<double> chosen =
+            filter < 0 ? planner_->choose(bracket, prev.get()) : planner_->choose_for_filter(filter, bracket, prev.get());
+        const double readout = rig_.camera.readout_s();
         for (double e : bracket)
-          if (std::find(exposures.begin(), exposures.end(), e) == exposures.end()) {
+          if (std::find(chosen.begin(), chosen.end(), e) == chosen.end()) {
             ++summary.skipped_frames;
             summary.skipped_s += e + readout;
           }
-      }
+        return chosen;
+      };
 
       retry([&] { return rig_.light.on(); }, rig_.light.id() + ": switch on");
       bool on = retry([&] { return rig_.light.is_on(); }, rig_.light.id() + ": read state");
@@ -340,7 +343,7 @@ RunSummary Runner::run(const std::atomic<bool>& stop) {
         for (int k = 0; k < (wheel_ ? 3 : 1); ++k) {
           const int filter = wheel_ ? (reverse ? 2 - k : k) : -1;
           if (wheel_) move_wheel(filter);
-          for (double e : exposures) {
+          for (double e : exposures_for(filter)) {
             check_stop();
             double applied = retry([&] { return rig_.camera.set_exposure(e); },
                                    fmt::format("{}: set exposure {:.6g} s", rig_.camera.id(), e));

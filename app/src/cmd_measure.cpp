@@ -133,7 +133,7 @@ int run_measure(const MeasureArgs& a) {
     runner.set_filter_wheel(devices.filter_wheel.get(), dev::filter_wheel_config(*rig.filter_wheel).channel_slot);
   std::unique_ptr<acq::AdaptiveBracketing> planner;
   if (adaptive) {
-    planner = acq::make_adaptive_planner(setup, cam, &merge);
+    planner = acq::make_adaptive_planner(setup, cam, &merge, rig.filter_wheel.has_value());
     runner.set_planner(planner.get());
   }
   Progress progress("measure", session->position_count(), "pos");

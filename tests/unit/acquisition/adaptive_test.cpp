@@ -224,3 +224,26 @@ TEST(AdaptiveBracketing, AColourCameraIsPlannedOnItsMosaicSoEachColourKeepsItsEx
   // The first position (nothing stored yet) still takes the full bracket.
   EXPECT_EQ(planner.choose(bracket, nullptr), bracket);
 }
+
+TEST(AdaptiveBracketing, AFilterWheelPlansEachFiltersBracketFromThatFiltersLastMerge) {
+  acq::AdaptiveOptions o;
+  o.linear_floor = 4;
+  o.linear_saturation = 4000;
+  o.margin = 1.0;
+  o.max_information_loss = 0.0;
+  acq::AdaptiveBracketing planner(o, Image<std::uint8_t>());
+  const std::vector<double> bracket{1e-5, 1e-3, 1e-2, 1.0};
+  // Red bright (1e5 DN/s: 1 ms and 10 ms), blue dark (1e2: only 1 s sees it).
+  std::array<std::shared_ptr<ExrImage>, 3> merged;
+  const float rate[3] = {1e5f, 1e4f, 1e2f};
+  for (int c = 0; c < 3; ++c) {
+    merged[c] = std::make_shared<ExrImage>();
+    merged[c]->add("Y", ImageF(2, 1, 1, rate[c]));
+  }
+  planner.predict_per_filter([merged](int c) { return std::shared_ptr<const ExrImage>(merged[c]); });
+  ExrImage stored;  // the R, G, B the session keeps
+  stored.add("R", ImageF(2, 1, 1, 1.0f));
+  EXPECT_EQ(planner.choose_for_filter(0, bracket, &stored), (std::vector<double>{1e-3, 1e-2}));
+  EXPECT_EQ(planner.choose_for_filter(2, bracket, &stored), (std::vector<double>{1.0}));
+  EXPECT_EQ(planner.choose_for_filter(2, bracket, nullptr), bracket);  // the first position
+}

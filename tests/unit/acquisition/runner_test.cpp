@@ -420,3 +420,37 @@ TEST(Runner, AWheelThatDoesNotReachItsSlotIsADeviceFaultThatResumes) {
   EXPECT_TRUE(runner.run(stop).complete);
   expect_complete(s);
 }
+
+TEST(Runner, AFilterWheelAsksThePlannerForEachFiltersBracket) {
+  // A planner that keeps one exposure for red, two for green, all three for blue.
+  struct PerFilter final : acq::ExposurePlanner {
+    std::vector<double> choose(const std::vector<double>& b, const ExrImage*) override { return b; }
+    std::vector<double> choose_for_filter(int filter, const std::vector<double>& b, const ExrImage* previous) override {
+      if (!previous) return b;
+      return std::vector<double>(b.begin(), b.begin() + (filter + 1));
+    }
+  } planner;
+  test::TempDir d;
+  SessionDir s = SessionDir::create(d / "s", plan(6));
+  RunnerRig rig;
+  TestWheel wheel;
+  std::atomic<bool> stop{false};
+  Runner runner(s, rig.handles(), merge_mean);
+  runner.set_filter_wheel(&wheel, {1, 2, 3});
+  runner.set_planner(&planner);
+  RunSummary sum = runner.run(stop);
+  ASSERT_TRUE(sum.complete) << sum.stop_reason;
+  // A position planned after an earlier one was stored takes 1 + 2 + 3 frames (3 of 9
+  // skipped); the first (and any captured before the writer stored the one before) in full.
+  EXPECT_EQ(sum.frames + sum.skipped_frames, 6 * 9);
+  EXPECT_GE(sum.skipped_frames, 3);
+  EXPECT_EQ(sum.skipped_frames % 3, 0);
+  int planned = 0;
+  for (const auto& e : s.journal().read()) {
+    if (e.filters.size() != 6) continue;
+    ++planned;
+    EXPECT_TRUE(e.filters == (std::vector<std::string>{"B", "B", "B", "G", "G", "R"}) ||
+                e.filters == (std::vector<std::string>{"R", "G", "G", "B", "B", "B"}));
+  }
+  EXPECT_EQ(planned, sum.skipped_frames / 3);
+}

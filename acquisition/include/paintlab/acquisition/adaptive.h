@@ -53,6 +53,13 @@ class AdaptiveBracketing final : public ExposurePlanner {
   // Where the radiance comes from instead of `previous` (when there is one): a colour camera's
   // merged mosaic, whose every site is planned as the pixel it is (BracketMerger::last_mosaic).
   void predict_from(std::function<std::shared_ptr<const ExrImage>()> source) { source_ = std::move(source); }
+  // A filter-wheel camera: each filter's bracket is planned from that filter's last merged
+  // image (BracketMerger::last_filter_merge), so each channel keeps the exposures it needs.
+  void predict_per_filter(std::function<std::shared_ptr<const ExrImage>(int)> source) {
+    filter_source_ = std::move(source);
+  }
+  std::vector<double> choose_for_filter(int filter, const std::vector<double>& bracket_s,
+                                        const ExrImage* previous) override;
   // Largest information share a pixel lost in the last choose() (0 when nothing was dropped).
   double last_worst_loss() const { return last_worst_loss_; }
 
@@ -61,6 +68,7 @@ class AdaptiveBracketing final : public ExposurePlanner {
   Image<std::uint8_t> mask_;
   double last_worst_loss_ = 0.0;
   std::function<std::shared_ptr<const ExrImage>()> source_;
+  std::function<std::shared_ptr<const ExrImage>(int)> filter_source_;
 };
 
 }  // namespace paintlab::acq

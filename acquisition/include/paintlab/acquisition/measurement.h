@@ -82,6 +82,9 @@ class BracketMerger {
   // The radiance mosaic of the last merged bracket (Y, valid), before demosaicing; null for a
   // monochrome camera or before the first bracket.
   std::shared_ptr<const ExrImage> last_mosaic() const;
+  // A filter-wheel camera's last merge through filter c (0 R, 1 G, 2 B: Y, valid), before the
+  // colour map; null before the first position.
+  std::shared_ptr<const ExrImage> last_filter_merge(int c) const;
 
  private:
   // A filter-wheel camera's position (frames carrying FrameMeta::filter): one merge per
@@ -94,13 +97,16 @@ class BracketMerger {
   mutable std::mutex mutex_;
   std::unique_ptr<HdrMerger> merger_;
   std::shared_ptr<const ExrImage> last_mosaic_;
+  std::array<std::shared_ptr<const ExrImage>, 3> last_filter_{};
 };
 
 // The adaptive-bracketing planner for the camera and calibration of a measurement: the
 // response's floor and saturation in linear units and its noise model. A colour camera's
 // planner predicts from `merger`'s last mosaic: every site planned as the pixel it is, so each
-// colour channel keeps the exposures it needs (required then).
+// colour channel keeps the exposures it needs (required then); with `filter_wheel`, each
+// filter's bracket from that filter's last merge.
 std::unique_ptr<AdaptiveBracketing> make_adaptive_planner(const MeasureSetup& setup, const CameraPreparation& camera,
-                                                          const BracketMerger* merger = nullptr);
+                                                          const BracketMerger* merger = nullptr,
+                                                          bool filter_wheel = false);
 
 }  // namespace paintlab::acq

@@ -42,6 +42,13 @@ class ExposurePlanner {
  public:
   virtual ~ExposurePlanner() = default;
   virtual std::vector<double> choose(const std::vector<double>& bracket_s, const ExrImage* previous) = 0;
+  // With a filter wheel: the exposures for the bracket through one filter (0 R, 1 G, 2 B); by
+  // default the same as choose().
+  virtual std::vector<double> choose_for_filter(int filter, const std::vector<double>& bracket_s,
+                                                const ExrImage* previous) {
+    (void)filter;
+    return choose(bracket_s, previous);
+  }
 };
 
 struct RunnerOptions {
