@@ -36,6 +36,8 @@ namespace {
 // The commands' descriptions (their --help).
 constexpr const char* kMeasureHelp =
     "Measure a sample: sweep the light, capture exposure brackets, merge them into HDR images.\n"
+    "A colour camera (Bayer, or monochrome behind the rig's filter wheel: one bracket per filter)\n"
+    "stores R, G, B in linear sRGB after calib/colour.json (docs/colour.md).\n"
     "Writes DIR/session.json, DIR/journal.jsonl and DIR/hdr/pos_XXX.exr. Ctrl-C stops safely\n"
     "(LED off, table stopped); `paintlab measure --resume DIR` continues where it stopped.";
 
