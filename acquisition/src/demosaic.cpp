@@ -158,7 +158,7 @@ inline void interior_pixel(const Kernel& k, std::size_t i) {
     two(across, i - 1, i + 1);
     two(2 - across, up, down);
   }
-  k.out_ok[i] = ok[0] & ok[1] & ok[2] ? 1.0f : 0.0f;
+  k.out_ok[i] = (ok[0] && ok[1] && ok[2]) ? 1.0f : 0.0f;
   constexpr float inf = std::numeric_limits<float>::infinity();
   for (int r = 0; r < 3; ++r) {
     k.out[r][i] = k.m[3 * r] * c[0] + k.m[3 * r + 1] * c[1] + k.m[3 * r + 2] * c[2];

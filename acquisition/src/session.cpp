@@ -46,7 +46,8 @@ SessionOptions SessionOptions::from_json(const Json& j, const std::string& where
   o.demosaic = json_get_or<std::string>(j, "demosaic", "", at);
   if (!o.colour_space.empty() && o.colour_space != colour::kLinearSrgb && o.colour_space != colour::kCameraRgb)
     throw DataError(fmt::format("{}: colour_space '{}' is none of '{}', '{}'", at, o.colour_space,
-                                colour::kLinearSrgb, colour::kCameraRgb));  if (j.contains("sim_paint")) {
+                                colour::kLinearSrgb, colour::kCameraRgb));
+  if (j.contains("sim_paint")) {
     o.sim_paint = j.at("sim_paint");
     if (!o.sim_paint.is_object() && !o.sim_paint.is_null()) throw DataError(at + ": sim_paint is not an object");
   }

@@ -17,6 +17,7 @@
 #include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/devices/device_config.h"
 #include "paintlab/sim/paint.h"
 #include "paintlab/sim/peers/sim_rig.h"
 #include "paintlab/sim/scene_render.h"
