@@ -103,6 +103,40 @@ Demosaiced demosaic_at_border(const float* value, const float* variance, const f
   return d;
 }
 
+// One pixel through the colour map with its variance: the map's Jacobian by forward
+// differences (exact for a matrix) carries each channel's variance into the outputs it enters;
+// an invalid channel gives those outputs an infinite variance.
+struct Mapped {
+  std::array<float, 3> value;
+  std::array<float, 3> var;
+};
+Mapped map_pixel(const ColourMap& map, const std::array<double, 3>& cam, const std::array<double, 3>& var,
+                 const bool ok[3]) {
+  const std::array<double, 3> f = map.apply(cam);
+  double var_out[3] = {0, 0, 0};
+  bool bad[3] = {false, false, false};
+  const double step = 1e-4 * std::max({std::abs(cam[0]), std::abs(cam[1]), std::abs(cam[2]), 1e-12});
+  for (int j = 0; j < 3; ++j) {
+    std::array<double, 3> shifted = cam;
+    shifted[static_cast<std::size_t>(j)] += step;
+    const std::array<double, 3> g = map.apply(shifted);
+    for (int r = 0; r < 3; ++r) {
+      const double d = (g[static_cast<std::size_t>(r)] - f[static_cast<std::size_t>(r)]) / step;
+      if (d == 0.0) continue;
+      if (!ok[j]) bad[r] = true;
+      var_out[r] += d * d * var[static_cast<std::size_t>(j)];
+    }
+  }
+  Mapped m{};
+  for (int r = 0; r < 3; ++r) {
+    m.value[static_cast<std::size_t>(r)] = static_cast<float>(f[static_cast<std::size_t>(r)]);
+    m.var[static_cast<std::size_t>(r)] = bad[r] || !std::isfinite(var_out[r])
+                                             ? std::numeric_limits<float>::infinity()
+                                             : static_cast<float>(var_out[r]);
+  }
+  return m;
+}
+
 // The interior's four kinds of site: the colour a site sees and, for a green site, the colour
 // of its left and right neighbours.
 enum SiteKind { kRedSite = 0, kBlueSite = 1, kGreenAcrossRed = 2, kGreenAcrossBlue = 3 };
@@ -242,23 +276,10 @@ ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map) {
       }
       return;
     }
-    // The non-linear map: its Jacobian by forward differences carries the variance.
-    const std::array<double, 3> cam{d.v[0], d.v[1], d.v[2]};
-    const std::array<double, 3> f = map.apply(cam);
-    double var_out[3] = {0, 0, 0};
-    for (int j = 0; j < 3; ++j) {
-      std::array<double, 3> shifted = cam;
-      const double step = 1e-4 * std::max({std::abs(cam[0]), std::abs(cam[1]), std::abs(cam[2]), 1e-12});
-      shifted[static_cast<std::size_t>(j)] += step;
-      const std::array<double, 3> g = map.apply(shifted);
-      for (int r = 0; r < 3; ++r) {
-        const double dr = (g[static_cast<std::size_t>(r)] - f[static_cast<std::size_t>(r)]) / step;
-        var_out[r] += dr * dr * d.var[j];
-      }
-    }
+    const Mapped p = map_pixel(map, {d.v[0], d.v[1], d.v[2]}, {d.var[0], d.var[1], d.var[2]}, d.ok);
     for (int r = 0; r < 3; ++r) {
-      o_v[r][i] = static_cast<float>(f[static_cast<std::size_t>(r)]);
-      o_var[r][i] = ok && std::isfinite(var_out[r]) ? static_cast<float>(var_out[r]) : inf;
+      o_v[r][i] = p.value[static_cast<std::size_t>(r)];
+      o_var[r][i] = p.var[static_cast<std::size_t>(r)];
     }
   };
 
@@ -326,7 +347,6 @@ ExrImage map_colour(const std::array<const ExrImage*, 3>& channels, const Colour
   out.attributes["paintlab.colour_space"] = map.colour_space;
   std::vector<ImageF> planes(7);
   tbb::parallel_for(0, 7, [&](int k) { planes[static_cast<std::size_t>(k)] = ImageF(w, h, 1); });
-  const float inf = std::numeric_limits<float>::infinity();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 4096),
                     [&](const tbb::blocked_range<std::size_t>& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -338,26 +358,10 @@ ExrImage map_colour(const std::array<const ExrImage*, 3>& channels, const Colour
         var[static_cast<std::size_t>(c)] = q[c]->data()[i];
         ok[c] = a[c]->data()[i] > 0.5f;
       }
-      const std::array<double, 3> f = map.apply(cam);
-      // The map's Jacobian (exact for a matrix) by forward differences.
-      double var_out[3] = {0, 0, 0};
-      bool bad[3] = {false, false, false};
-      const double step = 1e-4 * std::max({std::abs(cam[0]), std::abs(cam[1]), std::abs(cam[2]), 1e-12});
-      for (int j = 0; j < 3; ++j) {
-        std::array<double, 3> shifted = cam;
-        shifted[static_cast<std::size_t>(j)] += step;
-        const std::array<double, 3> g = map.apply(shifted);
-        for (int r = 0; r < 3; ++r) {
-          const double d = (g[static_cast<std::size_t>(r)] - f[static_cast<std::size_t>(r)]) / step;
-          if (d == 0.0) continue;
-          if (!ok[j]) bad[r] = true;
-          var_out[r] += d * d * var[static_cast<std::size_t>(j)];
-        }
-      }
+      const Mapped p = map_pixel(map, cam, var, ok);
       for (int r = 0; r < 3; ++r) {
-        planes[static_cast<std::size_t>(r)].data()[i] = static_cast<float>(f[static_cast<std::size_t>(r)]);
-        planes[static_cast<std::size_t>(3 + r)].data()[i] =
-            bad[r] || !std::isfinite(var_out[r]) ? inf : static_cast<float>(var_out[r]);
+        planes[static_cast<std::size_t>(r)].data()[i] = p.value[static_cast<std::size_t>(r)];
+        planes[static_cast<std::size_t>(3 + r)].data()[i] = p.var[static_cast<std::size_t>(r)];
       }
       planes[6].data()[i] = ok[0] && ok[1] && ok[2] ? 1.0f : 0.0f;
     }

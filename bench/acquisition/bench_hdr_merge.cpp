@@ -213,6 +213,27 @@ std::vector<Image<std::uint16_t>> raw_stack(const std::vector<double>& t, std::u
   return images;
 }
 
+// A one-channel response curve: 256 knots over the span above `black`, the linear value of
+// each from `linear(u)`, noise read_noise DN and 0.3 DN per electron.
+template <class Linear>
+calib::ResponseCurve mono_response(int bit_depth, double black, double max_dn, double floor_dn, double read_noise,
+                                   Linear linear) {
+  calib::ResponseCurve r;
+  r.bit_depth = bit_depth;
+  r.channels = 1;
+  r.window.black_dn = black;
+  r.window.floor_dn = floor_dn;
+  r.window.saturation_dn = max_dn;
+  r.linear.resize(1);
+  for (int k = 0; k < 256; ++k) {
+    const double u = (max_dn - black) * k / 255.0;
+    r.knots_dn.push_back(u);
+    r.linear[0].push_back(linear(u));
+  }
+  r.noise = {read_noise, 0.3, "benchmark"};
+  return r;
+}
+
 // A uniform dark map (bias `black`, dark current `rate` DN/s) and a flat with 10 % vignetting.
 void add_dark_and_flat(acq::HdrCalibration& cal, int bit_depth, double black, float rate, double read_noise) {
   calib::DarkFrame d;
@@ -251,24 +272,13 @@ const MonoStack& mono_stack() {
     const double black = 1000.0, span = 65535.0 - black;
     s.images = raw_stack(s.t, 21, black, 65535.0, 100.0,
                          [](double e) { return 1.12 * e - 0.16 * e * e + 0.04 * e * e * e; }, &s.input_bytes);
-    calib::ResponseCurve r;
-    r.bit_depth = 16;
-    r.channels = 1;
-    r.window.black_dn = black;
-    r.window.floor_dn = 30.0;
-    r.window.saturation_dn = 65535.0;
-    r.linear.resize(1);
-    for (int k = 0; k < 256; ++k) {
-      const double u = span * k / 255.0;
-      r.knots_dn.push_back(u);
+    s.response_only.response = mono_response(16, black, 65535.0, 30.0, 10.0, [&](double u) {
       // Inverse of the cubic by Newton's method.
       const double y = u / span;
       double e = y;
       for (int it = 0; it < 30; ++it) e -= (1.12 * e - 0.16 * e * e + 0.04 * e * e * e - y) / (1.12 - 0.32 * e + 0.12 * e * e);
-      r.linear[0].push_back(span * e);
-    }
-    r.noise = {10.0, 0.3, "benchmark"};
-    s.response_only.response = r;
+      return span * e;
+    });
     s.full = s.response_only;
     add_dark_and_flat(s.full, 16, black, 2.0f, 10.0);
     return s;
@@ -324,21 +334,9 @@ const BayerStack& bayer_stack() {
   static BayerStack s = [] {
     BayerStack s;
     s.t = bracket();
-    const double black = 64.0, span = 4095.0 - black;
+    const double black = 64.0;
     s.images = raw_stack(s.t, 31, black, 4095.0, 10.0, [](double e) { return e; }, &s.input_bytes);
-    calib::ResponseCurve r;
-    r.bit_depth = 12;
-    r.channels = 1;
-    r.window.black_dn = black;
-    r.window.floor_dn = 8.0;
-    r.window.saturation_dn = 4095.0;
-    r.linear.resize(1);
-    for (int k = 0; k < 256; ++k) {
-      r.knots_dn.push_back(span * k / 255.0);
-      r.linear[0].push_back(span * k / 255.0);
-    }
-    r.noise = {3.0, 0.3, "benchmark"};
-    s.full.response = r;
+    s.full.response = mono_response(12, black, 4095.0, 8.0, 3.0, [](double u) { return u; });
     add_dark_and_flat(s.full, 12, black, 0.5f, 3.0);
     s.full.flat->cfa = std::array<int, 4>{0, 1, 1, 2};
     const std::array<double, 9> m{1.6, -0.5, -0.1, -0.2, 1.4, -0.2, 0.0, -0.4, 1.4};

@@ -199,13 +199,22 @@ TEST(AdaptiveBracketing, KeepsOnlyTheExposuresThatSeeTheRadianceRange) {
   EXPECT_THROW(acq::AdaptiveBracketing(acq::AdaptiveOptions{}, Image<std::uint8_t>()), UsageError);
 }
 
-TEST(AdaptiveBracketing, AColourCameraIsPlannedOnItsMosaicSoEachColourKeepsItsExposures) {
+namespace {
+
+// Usable between 4 and 4000 linear DN, no margin, the literal rule alone.
+acq::AdaptiveOptions literal_options() {
   acq::AdaptiveOptions o;
   o.linear_floor = 4;
   o.linear_saturation = 4000;
   o.margin = 1.0;
   o.max_information_loss = 0.0;
-  acq::AdaptiveBracketing planner(o, Image<std::uint8_t>());
+  return o;
+}
+
+}  // namespace
+
+TEST(AdaptiveBracketing, AColourCameraIsPlannedOnItsMosaicSoEachColourKeepsItsExposures) {
+  acq::AdaptiveBracketing planner(literal_options(), Image<std::uint8_t>());
   const std::vector<double> bracket{1e-5, 1e-3, 1e-2, 1.0};
   // What the runner stores of a colour position: R, G, B in linear sRGB, no Y: on its own the
   // planner cannot plan from it and keeps the full bracket.
@@ -226,12 +235,7 @@ TEST(AdaptiveBracketing, AColourCameraIsPlannedOnItsMosaicSoEachColourKeepsItsEx
 }
 
 TEST(AdaptiveBracketing, AFilterWheelPlansEachFiltersBracketFromThatFiltersLastMerge) {
-  acq::AdaptiveOptions o;
-  o.linear_floor = 4;
-  o.linear_saturation = 4000;
-  o.margin = 1.0;
-  o.max_information_loss = 0.0;
-  acq::AdaptiveBracketing planner(o, Image<std::uint8_t>());
+  acq::AdaptiveBracketing planner(literal_options(), Image<std::uint8_t>());
   const std::vector<double> bracket{1e-5, 1e-3, 1e-2, 1.0};
   // Red bright (1e5 DN/s: 1 ms and 10 ms), blue dark (1e2: only 1 s sees it).
   std::array<std::shared_ptr<ExrImage>, 3> merged;
