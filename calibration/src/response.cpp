@@ -516,6 +516,158 @@ void Solver::estimate(std::size_t p0, std::size_t p1, bool log_domain, std::vect
     (*e)[i] = den[i] > 0.0 ? num[i] / den[i] : std::numeric_limits<double>::quiet_NaN();
 }
 
+
+// ---- Robertson's curve under a log-log curvature prior (docs/research/hdr-sparse-brackets.md) ----
+//
+// When every exposure ratio is a whole power of one step k, the data fix g only up to a ripple
+// periodic in ln g with period ln k (Grossberg and Nayar 2003), and on sparse brackets the noise
+// picks a staircase among them. The prior that decides is the curvature of ln g against ln u,
+// zero for every power law (which camera curves are close to). Brackets whose ratios share no
+// such step (mixed ratios) fix the curve themselves and get no prior.
+
+// The weight of the prior relative to the data's misfit at the unconstrained curve.
+constexpr double kLogLogPriorWeight = 0.1;
+// Steps below this ratio leave ripples the second-difference penalty already removes.
+constexpr double kMinAmbiguousStep = 0.2231;  // ln 1.25
+
+// The largest step s >= ln 1.25 such that every ln(t_j / t_min) is a whole multiple of s
+// (within 5 % of s), or 0 when there is none.
+double common_log_step(std::span<const StackFrame> frames) {
+  std::vector<double> lt;
+  for (const auto& f : frames)
+    if (f.exposure_s > 0.0) lt.push_back(std::log(f.exposure_s));
+  std::sort(lt.begin(), lt.end());
+  lt.erase(std::unique(lt.begin(), lt.end(), [](double a, double b) { return b - a < 1e-3; }), lt.end());
+  if (lt.size() < 2) return 0.0;
+  double best = 0.0;
+  for (std::size_t i = 1; i < lt.size(); ++i)
+    for (int n = 1; n <= 4; ++n) {
+      const double step = (lt[i] - lt[i - 1]) / n;
+      if (step < kMinAmbiguousStep || step <= best) continue;
+      const bool whole = std::all_of(lt.begin(), lt.end(), [&](double v) {
+        const double q = (v - lt.front()) / step;
+        return std::abs(q - std::round(q)) <= 0.05;
+      });
+      if (whole) best = step;
+    }
+  return best;
+}
+
+// g at every knot from the knots from k_lo up: below k_lo, g(u) = g(u_lo) u / u_lo.
+Eigen::MatrixXd lower_extension(const KnotGrid& grid, int k_lo) {
+  const int K = grid.count, Ks = K - k_lo;
+  Eigen::MatrixXd T = Eigen::MatrixXd::Zero(K, Ks);
+  const double u_lo = grid.knot(k_lo);
+  for (int k = 0; k < K; ++k) {
+    if (k >= k_lo)
+      T(k, k - k_lo) = 1.0;
+    else
+      T(k, 0) = std::max(0.0, grid.knot(k)) / u_lo;
+  }
+  return T;
+}
+
+// P = D^T D with D the second derivative against s = ln u on the knots from k_lo up, each row
+// times sqrt of its cell width: h^T P h approximates the integral of h''(s)^2 ds.
+Eigen::MatrixXd log_log_curvature(const KnotGrid& grid, int k_lo) {
+  const int Ks = grid.count - k_lo;
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(std::max(0, Ks - 2), Ks);
+  for (int i = 1; i + 1 < Ks; ++i) {
+    const double s0 = std::log(grid.knot(k_lo + i - 1)), s1 = std::log(grid.knot(k_lo + i)),
+                 s2 = std::log(grid.knot(k_lo + i + 1));
+    const double h1 = s1 - s0, h2 = s2 - s1, c = 2.0 / (h1 + h2), w = std::sqrt(0.5 * (h1 + h2));
+    D(i - 1, i - 1) = w * c / h1;
+    D(i - 1, i) = -w * (c / h1 + c / h2);
+    D(i - 1, i + 1) = w * c / h2;
+  }
+  return D.transpose() * D;
+}
+
+double rayleigh(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& g) {
+  return g.dot(A * g) / g.dot(B * g);
+}
+
+// The exponent of the power law g = u^gamma (gamma in [0.2, 6], golden-section search) that
+// fits the data best: where the refinement starts.
+double best_power_law_gamma(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& log_u) {
+  auto misfit = [&](double gamma) { return rayleigh(A, B, (gamma * log_u).array().exp().matrix()); };
+  const double phi = 0.5 * (std::sqrt(5.0) - 1.0);
+  double a = 0.2, b = 6.0;
+  double x1 = b - phi * (b - a), x2 = a + phi * (b - a), f1 = misfit(x1), f2 = misfit(x2);
+  for (int it = 0; it < 60 && b - a > 1e-6; ++it) {
+    if (f1 < f2) {
+      b = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = b - phi * (b - a);
+      f1 = misfit(x1);
+    } else {
+      a = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = a + phi * (b - a);
+      f2 = misfit(x2);
+    }
+  }
+  return 0.5 * (a + b);
+}
+
+// Minimises F(h) = g^T A g / g^T B g + mu h^T P h over h = ln g, h[ref] held, by
+// Levenberg-Marquardt with a Gauss-Newton Hessian made positive semi-definite. False when F
+// never falls (the caller keeps the eigenvector solution).
+bool minimise_log_log(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::MatrixXd& P, double mu,
+                      int ref, Eigen::VectorXd* h) {
+  const int n = static_cast<int>(h->size());
+  auto value = [&](const Eigen::VectorXd& x) {
+    const Eigen::VectorXd g = x.array().exp().matrix();
+    return rayleigh(A, B, g) + mu * x.dot(P * x);
+  };
+  double F = value(*h), nu = 1e-3;
+  bool improved = false;
+  for (int it = 0; it < 100; ++it) {
+    const Eigen::VectorXd g = h->array().exp().matrix();
+    const Eigen::VectorXd Ag = A * g, Bg = B * g;
+    const double s = g.dot(Bg), r = g.dot(Ag) / s;
+    const Eigen::VectorXd dr = 2.0 * (Ag - r * Bg) / s;
+    const Eigen::VectorXd gdr = g.cwiseProduct(dr);
+    Eigen::VectorXd grad = gdr + 2.0 * mu * (P * *h);
+    Eigen::MatrixXd H = g.asDiagonal() * (2.0 * (A - r * B) / s) * g.asDiagonal();
+    H.diagonal() += gdr.cwiseAbs();
+    H += 2.0 * mu * P;
+    grad[ref] = 0.0;
+    H.row(ref).setZero();
+    H.col(ref).setZero();
+    H(ref, ref) = 1.0;
+    bool step_taken = false;
+    for (int tries = 0; tries < 12 && !step_taken; ++tries) {
+      Eigen::MatrixXd Hl = H;
+      for (int i = 0; i < n; ++i) Hl(i, i) += nu * std::max(H(i, i), 1e-12);
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(Hl);
+      Eigen::VectorXd delta = ldlt.solve(-grad);
+      if (!delta.allFinite()) {
+        nu *= 10.0;
+        continue;
+      }
+      delta = delta.cwiseMax(-2.0).cwiseMin(2.0);
+      delta[ref] = 0.0;
+      const Eigen::VectorXd trial = *h + delta;
+      const double Ft = value(trial);
+      if (std::isfinite(Ft) && Ft < F) {
+        const double drop = F - Ft;
+        *h = trial;
+        F = Ft;
+        nu = std::max(nu / 3.0, 1e-12);
+        step_taken = improved = true;
+        if (drop < 1e-12 * F) return true;
+      } else {
+        nu *= 10.0;
+      }
+    }
+    if (!step_taken) break;
+  }
+  return improved;
+}
+
 void Solver::solve_direct(bool robertson) {
   // The least-squares problem over all weighted samples,
   //   Robertson: sum w (g(u) - t E)^2          Debevec: sum w (ln g(u) - ln t - ln E)^2,
@@ -649,6 +801,7 @@ void Solver::solve_direct(bool robertson) {
         A(i, l) = mc[static_cast<std::size_t>(i) * K + l];
         A(l, i) = A(i, l);
       }
+    const Eigen::MatrixXd A_data = A;  // the data's form alone: its Rayleigh quotient is their misfit
     for (int k = 1; k + 1 < K; ++k) {
       const int idx[3] = {k - 1, k, k + 1};
       const double coef[3] = {1.0, -2.0, 1.0};
@@ -677,6 +830,32 @@ void Solver::solve_direct(bool robertson) {
       if (!(std::abs(x[ref_knot_]) > 0.0))
         throw CalibrationError(fmt::format("response: channel {}: the least-squares system is singular", c));
       x *= u_ref / x[ref_knot_];
+      // The log-log curvature prior decides what the exposure ratios leave free (see above):
+      // from the best power law, the curve that fits the data under the prior.
+      int k_lo = 0;
+      while (k_lo < K && !(grid_.knot(k_lo) > std::max(window_.floor_dn, 0.0))) ++k_lo;
+      const double step = common_log_step(frames_);
+      if (step > 0.0 && k_lo + 3 < K && ref_knot_ >= k_lo) {
+        const Eigen::MatrixXd T = lower_extension(grid_, k_lo);
+        const Eigen::MatrixXd As = T.transpose() * A * T;
+        const Eigen::MatrixXd Bs = T.transpose() * B * T;
+        const Eigen::MatrixXd P = log_log_curvature(grid_, k_lo);
+        Eigen::VectorXd log_u(K - k_lo);
+        for (int k = k_lo; k < K; ++k) log_u[k - k_lo] = std::log(grid_.knot(k) / u_ref);
+        const double gamma = best_power_law_gamma(As, Bs, log_u);
+        // The prior's weight in units of the data's own misfit (their noise level): it decides
+        // along the directions the data leave free and yields where they speak.
+        const double mu = kLogLogPriorWeight * rayleigh(A_data, B, x);
+        Eigen::VectorXd h = (std::log(u_ref) + gamma * log_u.array()).matrix();
+        if (minimise_log_log(As, Bs, P, mu, ref_knot_ - k_lo, &h)) {
+          x = T * h.array().exp().matrix();
+          x *= u_ref / x[ref_knot_];
+        } else {
+          spdlog::warn("response: channel {}: the log-log prior's solve did not improve on its start; the curve is "
+                       "the unconstrained eigenvector",
+                       c);
+        }
+      }
     } else {
       const Eigen::LDLT<Eigen::MatrixXd> ldlt(A);
       if (ldlt.info() != Eigen::Success)

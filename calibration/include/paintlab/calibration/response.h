@@ -141,7 +141,9 @@ struct ResponseOptions {
   // Curvature penalty, relative to the mean data weight per knot (keeps knots without data
   // defined and the curve smooth; Debevec's lambda plays this role). < 0: the method's
   // default, 1 for Robertson (linear domain) and 1e-3 for Debevec (log domain), chosen on the
-  // synthetic stacks of tests/unit/calibration/response_test.cpp.
+  // synthetic stacks of tests/unit/calibration/response_test.cpp. Robertson on a bracket whose
+  // exposure ratios are all powers of one step (>= 1.25) also gets a log-log curvature prior
+  // weighted by the data's own misfit (docs/radiometry.md, "Constant-ratio brackets").
   double smoothness = -1.0;
   // A colour (one value per channel) that marks pixels without data in an image (e.g. the
   // pure-blue registration borders of Debevec's photos); empty: none.
