@@ -77,6 +77,7 @@ void register_check_commands(CLI::App& app);      // paintlab check (cmd_check.c
 void register_export_commands(CLI::App& app);     // paintlab export, paintlab axf validate|show (cmd_export.cpp)
 void register_library_commands(CLI::App& app);    // paintlab library add|list|show|remove|export (cmd_library.cpp)
 void register_render_commands(CLI::App& app);     // paintlab render (cmd_render.cpp)
+void register_colour_commands(CLI::App& app);     // paintlab colour, paintlab qc (cmd_colour.cpp)
 void register_demo_commands(CLI::App& app);       // paintlab demo (cmd_demo.cpp)
 
 }  // namespace paintlab::app

@@ -51,6 +51,7 @@ int main(int argc, char** argv) {
   app::register_export_commands(app);
   app::register_library_commands(app);
   app::register_render_commands(app);
+  app::register_colour_commands(app);
   app::register_demo_commands(app);
 
   try {

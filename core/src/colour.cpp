@@ -69,9 +69,11 @@ Xyz adapt(const Xyz& xyz, const Xyz& from_white, const Xyz& to_white) {
   return from_cms(out);
 }
 
-double delta_e_2000(const Lab& lab1, const Lab& lab2) {
+double delta_e_2000(const Lab& lab1, const Lab& lab2) { return delta_e_2000(lab1, lab2, 1.0, 1.0, 1.0); }
+
+double delta_e_2000(const Lab& lab1, const Lab& lab2, double kL, double kC, double kH) {
   const cmsCIELab l1 = to_cms(lab1), l2 = to_cms(lab2);
-  return cmsCIE2000DeltaE(&l1, &l2, 1.0, 1.0, 1.0);
+  return cmsCIE2000DeltaE(&l1, &l2, kL, kC, kH);
 }
 
 }  // namespace paintlab::colour

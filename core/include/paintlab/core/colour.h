@@ -44,6 +44,9 @@ Xyz adapt(const Xyz& xyz, const Xyz& from_white, const Xyz& to_white);
 
 // CIEDE2000 with the parametric factors kL = kC = kH = 1 (Sharma, Wu and Dalal 2005).
 double delta_e_2000(const Lab& lab1, const Lab& lab2);
+// With the parametric factors kL, kC, kH (> 1 makes that difference count less), as
+// tolerance sets weight lightness against chroma and hue.
+double delta_e_2000(const Lab& lab1, const Lab& lab2, double kL, double kC, double kH);
 
 // Linear sRGB <-> XYZ (D65, Y = 1 for white).
 const Eigen::Matrix3d& srgb_to_xyz_matrix();
