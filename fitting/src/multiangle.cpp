@@ -2,9 +2,11 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <regex>
 #include <stdexcept>
 
@@ -13,6 +15,10 @@
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/axf_file.h"
 #include "paintlab/fitting/export.h"
+#include "paintlab/fitting/paint_library.h"
+#include "paintlab/fitting/pipeline.h"
+#include "paintlab/fitting/session_binning.h"
+#include "paintlab/brdf/rusinkiewicz.h"
 
 namespace fs = std::filesystem;
 
@@ -165,16 +171,7 @@ MultiAngleColour paint_colour(const fs::path& file, const std::vector<Geometry>&
   MultiAngleColour out;
   out.source = file.string();
   std::unique_ptr<brdf::Brdf> model;
-  if (file.extension() == ".binary") {
-    // A MERL table: read as linear sRGB, which is what paintlab writes (an export of a
-    // colour-calibrated session); the table itself is what the model evaluates.
-    if (!fs::is_regular_file(file)) throw IoError(file.string(), "no such file");
-    brdf::PaintSpec spec;
-    spec.name = file.stem().string();
-    spec.params = brdf::MerlParams{file.string(), file};
-    out.paint = spec.name;
-    model = brdf::make_brdf(spec);
-  } else if (file.extension() == ".toml") {
+  if (file.extension() == ".toml") {
     // Paint files are linear sRGB by convention (docs/paint-files.md); every model has a colour.
     const brdf::PaintSpec spec = brdf::load_paint_file(file);
     out.paint = spec.name;
@@ -192,6 +189,229 @@ MultiAngleColour paint_colour(const fs::path& file, const std::vector<Geometry>&
   out.model = colour_at(*model, geometries);
   out.flop = flop_index(out.model);
   return out;
+}
+
+namespace {
+
+// The canonical directions of (theta_h, theta_d, phi_d) (phi_h = 0), phi_d reduced to [0, pi]
+// as the MERL layout does.
+brdf::DirectionPair canonical(double theta_h, double theta_d, double phi_d) {
+  if (phi_d < 0.0) phi_d += kPi;
+  if (phi_d > kPi) phi_d -= kPi;
+  brdf::HalfDiff hd;
+  hd.theta_h = theta_h;
+  hd.theta_d = theta_d;
+  hd.phi_d = phi_d;
+  return brdf::directions_from_half_diff(hd);
+}
+
+double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180.0 / kPi;
+}
+
+}  // namespace
+
+
+namespace {
+
+// The value at the target from the chosen bins: a weighted local linear fit of ln f against
+// (theta_h, theta_d, sin theta_h phi_d) about the target, so that a lobe's slope across the
+// neighbourhood does not bias the estimate (a plain mean would: the neighbours are rarely
+// placed symmetrically); the weighted mean where the bins are too few for it or a value is
+// not positive. Weights: the bin mean's inverse variance (count / variance), or its count for
+// a table without variances. The standard error is the intercept's, scaled by the residual
+// scatter where that exceeds the variances (or where there are no variances).
+template <class Bin>
+MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float>* noise_variance,
+                           const std::vector<std::pair<double, const Bin*>>& chosen, const brdf::HalfDiff& target) {
+  MeasuredColour m;
+  const std::size_t N = chosen.size();
+  bool have_variance = true, positive = true;
+  std::vector<Eigen::Array3d> w(N), v(N);
+  std::vector<Eigen::Vector4d> x(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    const std::size_t b = chosen[i].second->index;
+    const double count = std::max<std::uint32_t>(table.count(b), 1);  // a public table: one value per bin
+    // The per-sample noise variance the merge carried (a session's) is what the bin's few
+    // samples cannot estimate themselves; their own scatter serves from 5 samples on.
+    Eigen::Array3d var = Eigen::Array3d::Zero();
+    if (noise_variance && noise_variance->size() == 3 * brdf::kMerlBins)
+      var = Eigen::Array3d((*noise_variance)[3 * b], (*noise_variance)[3 * b + 1], (*noise_variance)[3 * b + 2])
+                .cast<double>();
+    else if (table.count(b) >= 5)
+      var = table.variance(b);
+    have_variance = have_variance && (var > 0.0).all();
+    w[i] = (var > 0.0).all() ? Eigen::Array3d(count / var) : Eigen::Array3d::Constant(count);
+    v[i] = table.value(b);
+    positive = positive && (v[i] > 0.0).all();
+    const Eigen::Vector3d c = table.mean_coords(b);
+    double dphi = c[2] - (target.phi_d < 0.0 ? target.phi_d + kPi : target.phi_d);
+    if (dphi > kPi / 2) dphi -= kPi;
+    if (dphi < -kPi / 2) dphi += kPi;
+    x[i] = {1.0, c[0] - target.theta_h, c[1] - target.theta_d, std::sin(target.theta_h) * dphi};
+  }
+  constexpr std::size_t kMinForSlope = 8;
+  for (int ch = 0; ch < 3; ++ch) {
+    double value = 0.0, variance = 0.0;
+    if (positive && N >= kMinForSlope) {
+      // ln f: weights w f^2 (the delta method), so that the weights stay inverse variances.
+      Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
+      Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+      for (std::size_t i = 0; i < N; ++i) {
+        const double wi = w[i][ch] * v[i][ch] * v[i][ch], y = std::log(v[i][ch]);
+        A += wi * x[i] * x[i].transpose();
+        rhs += wi * y * x[i];
+      }
+      // A whisper of ridge on the slopes keeps a neighbourhood without spread in one
+      // coordinate (a single row of bins) solvable; the intercept is not damped.
+      for (int k = 1; k < 4; ++k) A(k, k) += 1e-12 * A(0, 0);
+      const Eigen::LDLT<Eigen::Matrix4d> ldlt(A);
+      const Eigen::Vector4d beta = ldlt.solve(rhs);
+      double chi2 = 0.0;
+      for (std::size_t i = 0; i < N; ++i) {
+        const double r = std::log(v[i][ch]) - x[i].dot(beta);
+        chi2 += w[i][ch] * v[i][ch] * v[i][ch] * r * r;
+      }
+      const double scale = have_variance ? std::max(1.0, chi2 / static_cast<double>(N - 4)) : chi2 / static_cast<double>(N - 4);
+      const Eigen::Vector4d e0 = Eigen::Vector4d::UnitX();
+      value = std::exp(beta[0]);
+      variance = ldlt.solve(e0)[0] * scale * value * value;
+    } else {
+      double sw = 0.0, swv = 0.0;
+      for (std::size_t i = 0; i < N; ++i) {
+        sw += w[i][ch];
+        swv += w[i][ch] * v[i][ch];
+      }
+      value = swv / sw;
+      variance = 1.0 / sw;
+    }
+    m.reflectance[ch] = kPi * value;
+    m.reflectance_stderr[ch] = kPi * std::sqrt(std::max(variance, 0.0));
+  }
+  if (!have_variance && !(positive && N >= kMinForSlope))
+    m.reflectance_stderr.setConstant(std::numeric_limits<double>::quiet_NaN());
+  return m;
+}
+
+}  // namespace
+
+std::vector<std::optional<MeasuredColour>> measured_colour(const brdf::MerlTable& table,
+                                                           const std::vector<float>* noise_variance,
+                                                           const std::vector<Geometry>& geometries,
+                                                           const NearestSamplesOptions& options) {
+  if (options.radii_deg.empty()) throw std::invalid_argument("measured_colour: no radii");
+  const double r_max = *std::max_element(options.radii_deg.begin(), options.radii_deg.end());
+  // The measured bins with their canonical directions, once.
+  struct Bin {
+    std::size_t index;
+    double theta_h, theta_d;
+    brdf::DirectionPair dirs;
+  };
+  std::vector<Bin> bins;
+  for (std::size_t b = 0; b < brdf::kMerlBins; ++b) {
+    if (table.state(b) != brdf::BinState::Measured) continue;
+    const Eigen::Vector3d c = table.mean_coords(b);
+    bins.push_back({b, c[0], c[1], canonical(c[0], c[1], c[2])});
+  }
+  std::vector<std::optional<MeasuredColour>> out;
+  for (const Geometry& g : geometries) {
+    const brdf::HalfDiff hd = brdf::half_diff_from_directions(g.towards_light(), g.towards_viewer());
+    const brdf::DirectionPair target = canonical(hd.theta_h, hd.theta_d, hd.phi_d);
+    // Both directions within r of the target's bound theta_h and theta_d within r.
+    const double window = rad(r_max);
+    std::vector<std::pair<double, const Bin*>> near;
+    for (const Bin& b : bins) {
+      if (std::abs(b.theta_h - hd.theta_h) > window || std::abs(b.theta_d - hd.theta_d) > window) continue;
+      const double d = std::max(angle_deg(b.dirs.wi, target.wi), angle_deg(b.dirs.wo, target.wo));
+      if (d <= r_max) near.push_back({d, &b});
+    }
+    std::sort(near.begin(), near.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::optional<MeasuredColour> found;
+    for (double r : options.radii_deg) {
+      std::uint64_t n = 0;
+      std::size_t used = 0;
+      while (used < near.size() && near[used].first <= r) n += std::max<std::uint32_t>(table.count(near[used++].second->index), 1);
+      if (n < options.min_samples) continue;
+      const std::vector<std::pair<double, const Bin*>> chosen(near.begin(), near.begin() + static_cast<long>(used));
+      MeasuredColour m = estimate_at(table, noise_variance, chosen, hd);
+      m.lab = colour::srgb_to_lab(m.reflectance);
+      m.n = n;
+      m.angular_distance_deg = near[used - 1].first;
+      found = m;
+      break;
+    }
+    out.push_back(found);
+  }
+  return out;
+}
+
+std::string uncovered_reason(const brdf::MerlTable& table, const Geometry& g) {
+  double lo = 1e9, hi = -1e9;
+  for (std::size_t b = 0; b < brdf::kMerlBins; ++b) {
+    if (table.state(b) != brdf::BinState::Measured) continue;
+    const double phase = 2.0 * table.mean_coords(b)[1] * 180.0 / kPi;
+    lo = std::min(lo, phase);
+    hi = std::max(hi, phase);
+  }
+  const double need = angle_deg(g.towards_light(), g.towards_viewer());
+  if (lo > hi) return fmt::format("{}: the data hold no measured bins", g.name);
+  if (need < lo - 0.5 || need > hi + 0.5)
+    return fmt::format("{} needs {:.0f} deg between light and camera; the data cover {:.0f}..{:.0f} deg", g.name, need,
+                       lo, hi);
+  return fmt::format("{}: too few samples near it (the sphere's sampling there is sparse, or masked)", g.name);
+}
+
+MultiAngleColour measured_paint_colour(const fs::path& data, const std::vector<Geometry>& geometries,
+                                       const MeasuredInputOptions& options) {
+  SessionBinOptions bin;
+  bin.calib_dir = options.calib_dir;
+  const FitInput in = load_fit_input(data, bin);
+  for (const auto& w : in.warnings) spdlog::warn("{}", w);
+  // Sessions say their colour space; a MERL table is read as linear sRGB (what paintlab exports).
+  const std::string space = in.input.value("colour_space", std::string(colour::kLinearSrgb));
+  if (space != colour::kLinearSrgb)
+    throw DataError(fmt::format("{}: the measurement is {}, not {}: CIELAB needs the colour calibration "
+                                "(`paintlab calibrate colour`, then measure again)",
+                                data.string(), space, colour::kLinearSrgb));
+  MultiAngleColour out;
+  out.source = data.string();
+  out.measured =
+      measured_colour(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance, geometries, options.nearest);
+  std::vector<std::string> missing;
+  for (std::size_t i = 0; i < geometries.size(); ++i)
+    if (!out.measured[i]) missing.push_back(uncovered_reason(in.table, geometries[i]));
+  if (!missing.empty())
+    throw DataError(fmt::format("{}: no measured samples within {:g} deg of {}; choose a geometry set the sweep "
+                                "covers (--geometries)",
+                                data.string(), options.nearest.radii_deg.back(), fmt::join(missing, "; ")));
+  if (!options.fit_file.empty()) {
+    const MultiAngleColour m = paint_colour(options.fit_file, geometries);
+    out.paint = m.paint;
+    out.model = m.model;
+  } else {
+    spdlog::info("fitting a {}-lobe Cook-Torrance model to {} (give --fit FIT.json to use an existing fit)",
+                 options.lobes, data.string());
+    SharedFitOptions shared;
+    shared.lobes = options.lobes;
+    const FitOutcome fit = fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance,
+                                     FitRequest::with(FitModel::CookTorrance, paint_name_from(in.sample), shared),
+                                     in.input);
+    if (!fit.converged) spdlog::warn("the fit of {} did not converge ({})", data.string(), fit.termination);
+    AxfPaint p = axf_from_fit_json(fit.fit, data.string());
+    out.paint = p.name;
+    out.model = colour_at(*brdf::make_brdf(p.paint_spec()), geometries);
+  }
+  out.flop = flop_index(out.model);
+  return out;
+}
+
+MultiAngleColour any_colour(const fs::path& input, const std::vector<Geometry>& geometries,
+                            const MeasuredInputOptions& options) {
+  if (fs::is_directory(input) || input.extension() == ".binary") return measured_paint_colour(input, geometries, options);
+  if (!options.fit_file.empty())
+    throw UsageError(fmt::format("--fit is for measured data (a session or a .binary table); {} is a paint file",
+                                 input.string()));
+  return paint_colour(input, geometries);
 }
 
 Json colour_json(const MultiAngleColour& c) {
@@ -361,10 +581,29 @@ QcResult quality_control(const MultiAngleColour& standard, const MultiAngleColou
   return r;
 }
 
-QcResult quality_control(const fs::path& standard, const fs::path& sample, const std::vector<QcTolerance>& tolerances) {
+fs::path resolve_paint_input(const std::string& text, const fs::path& library_dir) {
+  if (fs::exists(text) || library_dir.empty()) return text;
+  const PaintLibrary lib = PaintLibrary::open(library_dir, false);
+  return lib.dir() / lib.find(text).file;
+}
+
+QcResult quality_control(const fs::path& standard, const fs::path& sample, const std::vector<QcTolerance>& tolerances,
+                         const MeasuredInputOptions& measured) {
   std::vector<Geometry> geometries;
   for (const auto& t : tolerances) geometries.push_back(t.geometry);
-  return quality_control(paint_colour(standard, geometries), paint_colour(sample, geometries), tolerances);
+  // Measured data are fitted and their model compared; the measured values need not cover
+  // every geometry for that, so the fit is what both sides give.
+  auto model_of = [&](const fs::path& p) {
+    if (fs::is_directory(p) || p.extension() == ".binary") {
+      MeasuredInputOptions o = measured;
+      o.fit_file.clear();  // each side is its own data
+      MultiAngleColour c = measured_paint_colour(p, geometries, o);
+      c.measured.clear();
+      return c;
+    }
+    return paint_colour(p, geometries);
+  };
+  return quality_control(model_of(standard), model_of(sample), tolerances);
 }
 
 Json qc_json(const QcResult& r) {

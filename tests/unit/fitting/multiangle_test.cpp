@@ -13,6 +13,8 @@
 #include "paintlab/brdf/paint.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/axf_file.h"
+#include "paintlab/sim/paint.h"
+#include "sim_session.h"
 #include "test_util.h"
 
 namespace paintlab::fit {
@@ -213,16 +215,98 @@ TEST(MultiAngle, CameraRgbPaintsHaveNoCielab) {
     EXPECT_LT(colour::delta_e_2000(from_axf.model[i].lab, from_toml.model[i].lab), 1e-6);
 }
 
-TEST(MultiAngle, AMerlTableIsEvaluatedLikeItsPaint) {
+TEST(MultiAngle, AMerlTablesNearestBinsAgreeWithItsPaint) {
   test::TempDir dir;
   const brdf::PaintSpec spec = brdf::load_paint_file(paint_file("solid-blue.toml"));
-  const auto model = brdf::make_brdf(spec);
-  brdf::write_merl(dir / "blue.binary", brdf::tabulate(*model));
-  const auto set = geometry_set("five-angle");
-  const auto table = paint_colour(dir / "blue.binary", set);
-  const auto paint = paint_colour(paint_file("solid-blue.toml"), set);
-  for (std::size_t i = 0; i < set.size(); ++i)
-    EXPECT_LT(colour::delta_e_2000(table.model[i].lab, paint.model[i].lab), 0.5) << set[i].name;
+  brdf::write_merl(dir / "blue.binary", brdf::tabulate(*brdf::make_brdf(spec)));
+  const auto set = geometry_set("six-angle");
+  MeasuredInputOptions o;
+  o.fit_file = paint_file("solid-blue.toml");
+  const auto c = measured_paint_colour(dir / "blue.binary", set, o);
+  ASSERT_EQ(c.measured.size(), set.size());
+  for (std::size_t i = 0; i < set.size(); ++i) {
+    SCOPED_TRACE(set[i].name);
+    ASSERT_TRUE(c.measured[i]);
+    EXPECT_GE(c.measured[i]->n, 20u);                   // a public table: one value per bin
+    EXPECT_LE(c.measured[i]->angular_distance_deg, 2.0);
+    EXPECT_LT(colour::delta_e_2000(c.measured[i]->lab, c.model[i].lab), 0.5);
+  }
+  const Json j = colour_json(c);
+  EXPECT_TRUE(j["geometries"][0]["measured"]["n"].is_number());
+  EXPECT_TRUE(j["geometries"][0]["de00"].is_number());
+}
+
+test_support::SimSessionOptions colour_sweep(double stop_deg) {
+  test_support::SimSessionOptions o;
+  o.width_px = 320;
+  o.height_px = 240;
+  o.focal_length_mm = 12.5;
+  o.step_deg = 4.0;
+  o.stop_deg = stop_deg;
+  o.noise_rel = 0.02;
+  o.sparkle = false;
+  return o;
+}
+
+// A session of the red metallic in linear sRGB: the samples nearest each geometry against the
+// truth, and against a fit made now (how well the fit reproduces the instrument's numbers).
+TEST(ColourCli, ASessionsSamplesBesideTheModel) {
+  const brdf::PaintSpec spec = brdf::load_paint_file(paint_file("red-metallic.toml"));
+  const auto sim = test_support::make_sim_session(sim::sim_paint(spec), colour_sweep(180.0));
+  const fs::path session = sim->dir / "session";
+  test_support::write_session_folder(*sim, session, "Red", 0, colour::kLinearSrgb);
+  const std::string common =
+      "colour " + session.string() + " --calib " + sim->calibration_dir().string() + " --geometries astm-e2194 --json";
+  auto r = test::run_paintlab(common + " --fit " + paint_file("red-metallic.toml").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  Json j = Json::parse(r.out);
+  for (const Json& g : j["geometries"]) {
+    SCOPED_TRACE(g["name"].get<std::string>());
+    ASSERT_TRUE(g["measured"].is_object());
+    std::printf("%s: measured L* %.2f a* %.2f b* %.2f (n %d, within %.1f deg), truth L* %.2f, dE00 %.3f\n",
+                g["name"].get<std::string>().c_str(), g["measured"]["L"].get<double>(),
+                g["measured"]["a"].get<double>(), g["measured"]["b"].get<double>(), g["measured"]["n"].get<int>(),
+                g["measured"]["angular_distance_deg"].get<double>(), g["model"]["L"].get<double>(),
+                g["de00"].get<double>());
+    // 2 % noise on some 20-30 samples: about 0.4 % per channel, dE00 0.2-0.4. A plain mean of
+    // the same neighbours is biased by the lobe's slope across them (dE00 1.0-1.7).
+    EXPECT_LT(g["de00"].get<double>(), 0.6);
+    EXPECT_GE(g["measured"]["n"].get<int>(), 20);
+    for (int c = 0; c < 3; ++c) {
+      const double R = g["measured"]["R"][c].get<double>(), truth = g["model"]["R"][c].get<double>();
+      const double se = g["measured"]["R_stderr"][c].get<double>();
+      std::printf("  channel %d: R %.5f, truth %.5f, standard error %.5f\n", c, R, truth, se);
+      EXPECT_GT(se, 0.0);
+      EXPECT_LT(std::abs(R - truth), 4.0 * se + 0.002 * truth);
+    }
+  }
+  r = test::run_paintlab(common + " --lobes 2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  j = Json::parse(r.out);
+  for (const Json& g : j["geometries"]) {
+    SCOPED_TRACE(g["name"].get<std::string>());
+    std::printf("%s: fit L* %.2f against measured: dE00 %.3f\n", g["name"].get<std::string>().c_str(),
+                g["model"]["L"].get<double>(), g["de00"].get<double>());
+    EXPECT_LT(g["de00"].get<double>(), 0.6);
+  }
+}
+
+TEST(ColourCli, AGeometryTheSweepDoesNotCoverIsAnErrorThatSaysWhy) {
+  const brdf::PaintSpec spec = brdf::load_paint_file(paint_file("solid-blue.toml"));
+  const auto sim = test_support::make_sim_session(sim::sim_paint(spec), colour_sweep(60.0));
+  const fs::path session = sim->dir / "session";
+  test_support::write_session_folder(*sim, session, "Blue", 0, colour::kLinearSrgb);
+  const auto r = test::run_paintlab("colour " + session.string() + " --calib " + sim->calibration_dir().string() +
+                                    " --geometries astm-e2194 --fit " + paint_file("solid-blue.toml").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("45as15 needs 75 deg between light and camera"));
+  EXPECT_THAT(r.err, HasSubstr("--geometries"));
+  // A session in camera RGB has no CIELAB.
+  const fs::path mono = sim->dir / "mono";
+  test_support::write_session_folder(*sim, mono, "Blue");
+  const auto m = test::run_paintlab("colour " + mono.string() + " --calib " + sim->calibration_dir().string());
+  EXPECT_EQ(m.exit_code, 2);
+  EXPECT_THAT(m.err, HasSubstr("linear camera RGB"));
 }
 
 // ---- Quality control ----

@@ -137,11 +137,13 @@ inline std::unique_ptr<SimSession> make_sim_session(const sim::SimPaint& paint, 
 
 // The frames of a simulated sweep as a session folder `dir` (session.json, journal.jsonl,
 // hdr/pos_XXX.exr), as paintlab measure leaves it, for sample `sample`; the plan holds
-// `extra_planned` more positions than were measured.
+// `extra_planned` more positions than were measured. `colour_space`: what session.json says
+// the radiance is (the simulator renders linear sRGB; empty: camera RGB, a mono session's).
 inline void write_session_folder(const SimSession& sim, const std::filesystem::path& dir, const std::string& sample,
-                                 int extra_planned = 0) {
+                                 int extra_planned = 0, const std::string& colour_space = "") {
   acq::SessionManifest m;
   m.sample = sample;
+  m.options.colour_space = colour_space;
   m.exposures_s = {0.01};
   for (const HdrFrame& f : sim.frames) m.angles_deg.push_back(f.angle_deg);
   for (int k = 0; k < extra_planned; ++k) m.angles_deg.push_back(m.angles_deg.back() + 1.0);

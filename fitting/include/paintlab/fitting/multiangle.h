@@ -14,12 +14,14 @@
 //   a 10 deg observer needs spectra), CIELAB against the D65 white. L* may pass 100 near the
 //   specular direction, as instrument values do.
 #include <Eigen/Core>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "paintlab/brdf/brdf.h"
+#include "paintlab/brdf/merl.h"
 #include "paintlab/core/colour.h"
 #include "paintlab/core/json.h"
 
@@ -87,8 +89,51 @@ struct MultiAngleColour {
   std::optional<double> flop;                           // of the model
 };
 
-// The colour of a paint file: a paint .toml (every model, pearlescent included), a fit.json,
-// an AxF-like .axf.h5 or a MERL .binary table (read as linear sRGB, what paintlab exports). DataError when the file's values are not linear sRGB (a measurement
+// The measured samples nearest each geometry in a binned table (a session's, or a MERL
+// table): the bins within the smallest radius of `radii_deg` that holds `min_samples`
+// samples, and the value at the geometry from a weighted local linear fit of ln f over them
+// (so that a lobe's slope across the neighbourhood does not bias it; a plain mean below 8
+// bins). Weights: the bin mean's inverse variance from `noise_variance` (a session's per-sample
+// noise, BinnedTable::noise_variance; may be null), else the bin's own scatter from 5 samples,
+// else its count. The radius is the angle between the geometry's light (or view) direction and
+// a bin's mean one, both with the half vector at the same azimuth. nullopt where even the
+// largest radius holds too few.
+struct NearestSamplesOptions {
+  std::uint32_t min_samples = 20;
+  std::vector<double> radii_deg = {0.5, 1.0, 2.0, 3.0, 5.0};
+};
+std::vector<std::optional<MeasuredColour>> measured_colour(const brdf::MerlTable& table,
+                                                           const std::vector<float>* noise_variance,
+                                                           const std::vector<Geometry>& geometries,
+                                                           const NearestSamplesOptions& options = {});
+
+// Why a geometry has no measured samples, for people: the angle between light and camera it
+// needs against the range the table covers ("45as-15 needs 105 deg between light and camera;
+// the sweep covers 20..170 deg").
+std::string uncovered_reason(const brdf::MerlTable& table, const Geometry& g);
+
+// How measured data become a model and measured colours.
+struct MeasuredInputOptions {
+  std::filesystem::path fit_file;  // the model: a fit.json or .axf.h5 of the data; empty: fit now
+  int lobes = 3;                   // Cook-Torrance lobes of a fit made now
+  std::optional<std::filesystem::path> calib_dir;  // a session's calibration (default: its rig's)
+  NearestSamplesOptions nearest;
+};
+
+// The colour of measured data, a session folder or a MERL .binary table: the measured samples
+// nearest each geometry beside the model (options.fit_file, or a Cook-Torrance fit made now).
+// DataError naming the geometries the data do not cover (and why), or data that are not
+// linear sRGB.
+MultiAngleColour measured_paint_colour(const std::filesystem::path& data, const std::vector<Geometry>& geometries,
+                                       const MeasuredInputOptions& options = {});
+
+// What `paintlab colour INPUT` reads: measured_paint_colour for a session folder or .binary
+// table, paint_colour for the rest (UsageError when options name a fit for a paint file).
+MultiAngleColour any_colour(const std::filesystem::path& input, const std::vector<Geometry>& geometries,
+                            const MeasuredInputOptions& options = {});
+
+// The colour of a paint file: a paint .toml (every model, pearlescent included), a fit.json
+// or an AxF-like .axf.h5. DataError when the file's values are not linear sRGB (a measurement
 // without a colour calibration has no CIELAB).
 MultiAngleColour paint_colour(const std::filesystem::path& file, const std::vector<Geometry>& geometries);
 
@@ -133,9 +178,14 @@ struct QcResult {
   bool pass = true;
 };
 
-// Compares two paint files (as paint_colour reads them) at the tolerances' geometries.
+// A QC side as the user names it: a file or folder that exists, else (with `library_dir`) the
+// name of a paint in that library. UsageError naming the text when it is neither.
+std::filesystem::path resolve_paint_input(const std::string& text, const std::filesystem::path& library_dir);
+
+// Compares two paints (as any_colour reads them: a session or table is fitted, and its model
+// compared) at the tolerances' geometries.
 QcResult quality_control(const std::filesystem::path& standard, const std::filesystem::path& sample,
-                         const std::vector<QcTolerance>& tolerances);
+                         const std::vector<QcTolerance>& tolerances, const MeasuredInputOptions& measured = {});
 // The same from colours already evaluated at the tolerances' geometries (in that order).
 QcResult quality_control(const MultiAngleColour& standard, const MultiAngleColour& sample,
                          const std::vector<QcTolerance>& tolerances);
