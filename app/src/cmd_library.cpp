@@ -7,6 +7,7 @@
 #include "paintlab/fitting/output_guard.h"
 #include "paintlab/fitting/export.h"
 #include "paintlab/core/error.h"
+#include "paintlab/fitting/multiangle.h"
 #include "paintlab/fitting/paint_library.h"
 
 namespace fs = std::filesystem;
@@ -24,6 +25,9 @@ struct LibraryArgs {
   std::string h5;
   std::string folder;
   bool overwrite = false;
+  std::string paint;
+  std::string geometries = fit::kDefaultGeometrySet;
+  double max_de = 1.0;
 };
 
 void warn_findings(const fit::PaintLibrary& lib) {
@@ -52,11 +56,16 @@ int run_list(const LibraryArgs& a) {
   }
   std::size_t w = 4;
   for (const auto& e : entries) w = std::max(w, e.name.size());
-  say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}", "NAME", w, "DATE", "MODEL", "LOG_RMS", "BINS"));
-  for (const auto& e : entries)
-    say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}", e.name, w, e.date, e.model,
+  say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}  {}", "NAME", w, "DATE", "MODEL", "LOG_RMS", "BINS",
+                  "L* a* b* AT 45as45"));
+  for (const auto& e : entries) {
+    std::string lab = "-";
+    for (const auto& [g, v] : e.colour)
+      if (g == "45as45") lab = fmt::format("{:.1f} {:.1f} {:.1f}", v.L, v.a, v.b);
+    say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}  {}", e.name, w, e.date, e.model,
                     e.log_rms ? fmt::format("{:.4f}", *e.log_rms) : "-",
-                    e.bins_used ? std::to_string(*e.bins_used) : "-"));
+                    e.bins_used ? std::to_string(*e.bins_used) : "-", lab));
+  }
   say(fmt::format("{} paint{} in {}", entries.size(), entries.size() == 1 ? "" : "s", lib.dir().string()));
   warn_findings(lib);
   return kExitOk;
@@ -67,6 +76,46 @@ int run_show(const LibraryArgs& a) {
   const fit::LibraryEntry e = lib.find(a.name);
   say(fit::describe_axf(lib.load(a.name)));
   say(fmt::format("  library file {} (sha256 {}), added {}", e.file, e.sha256, e.added_utc));
+  if (e.colour.empty()) say("  colour: none stored (a paint in camera RGB, or added by an older paintlab)");
+  for (const auto& [g, v] : e.colour)
+    say(fmt::format("  {:<8} L* {:6.2f}  a* {:6.2f}  b* {:6.2f}  (D65, 2 deg)", g, v.L, v.a, v.b));
+  return kExitOk;
+}
+
+int run_match(const LibraryArgs& a) {
+  const fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
+  const auto geometries = fit::geometry_set(a.geometries);
+  const fit::MultiAngleColour target = fit::any_colour(fit::resolve_paint_input(a.paint, a.dir), geometries);
+  const fit::LibraryMatchResult r = fit::library_match(lib, target, geometries);
+  for (const auto& n : r.skipped) spdlog::warn("library {}: '{}' has no CIELAB (camera RGB): left out", a.dir, n);
+  std::size_t within = 0;
+  while (within < r.matches.size() && r.matches[within].worst_de00 <= a.max_de) ++within;
+  if (a.json) {
+    Json arr = Json::array();
+    for (std::size_t i = 0; i < within; ++i) {
+      const auto& m = r.matches[i];
+      arr.push_back({{"name", m.name}, {"worst_de00", m.worst_de00}, {"worst_geometry", m.worst_geometry},
+                     {"mean_de00", m.mean_de00}});
+    }
+    say(Json{{"paint", target.paint}, {"geometries", a.geometries}, {"max_de00", a.max_de}, {"matches", arr}}.dump(2));
+    return kExitOk;
+  }
+  say(fmt::format("{} against {} paints of {} at {} ({} geometries; worst-geometry CIEDE2000)", target.paint,
+                  r.matches.size(), lib.dir().string(), a.geometries, geometries.size()));
+  if (within == 0) {
+    say(r.matches.empty() ? std::string("no paint to compare with")
+                          : fmt::format("no paint within dE00 {:.2f}; the closest is '{}' (worst dE00 {:.2f} at {})",
+                                        a.max_de, r.matches.front().name, r.matches.front().worst_de00,
+                                        r.matches.front().worst_geometry));
+    return kExitOk;
+  }
+  say(fmt::format("{:>4}  {:<24} {:>10}  {:<9} {:>9}", "RANK", "NAME", "WORST dE00", "AT", "MEAN dE00"));
+  for (std::size_t i = 0; i < within; ++i) {
+    const auto& m = r.matches[i];
+    say(fmt::format("{:>4}  {:<24} {:>10.2f}  {:<9} {:>9.2f}", i + 1, m.name, m.worst_de00, m.worst_geometry,
+                    m.mean_de00));
+  }
+  say(fmt::format("{} of {} paints within dE00 {:.2f}", within, r.matches.size(), a.max_de));
   return kExitOk;
 }
 
@@ -120,6 +169,19 @@ void register_library_commands(CLI::App& app) {
 
   auto [show, s] = command("show", "Print one paint: parameters, standard deviations, fit quality, provenance", run_show);
   show->add_option("NAME", s->name, "paint name")->required();
+
+  auto [match, m] = command(
+      "match",
+      "Rank the library's paints by their worst-geometry CIEDE2000 against PAINT (a paint file, a session, or a "
+      "name in the library): the colour match a lab runs every day (docs/colour.md)",
+      run_match);
+  match->add_option("PAINT", m->paint, "the paint to match")->required();
+  match->add_option("--geometries", m->geometries, "Geometry set (colour's names, or a .toml file)")
+      ->capture_default_str();
+  match->add_option("--max-de", m->max_de, "List paints whose worst dE00 is at most this")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  match->add_flag("--json", m->json, "Print JSON");
 
   auto [remove, r] = command("remove", "Remove a paint (the index first, then its file)", run_remove);
   remove->add_option("NAME", r->name, "paint name")->required();

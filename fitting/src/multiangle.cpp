@@ -649,4 +649,56 @@ std::string qc_table(const QcResult& r) {
   return s;
 }
 
+LibraryMatchResult library_match(const PaintLibrary& library, const MultiAngleColour& target,
+                                 const std::vector<Geometry>& geometries) {
+  if (target.model.size() != geometries.size())
+    throw std::logic_error("library_match: target not evaluated at the geometries");
+  LibraryMatchResult out;
+  const std::vector<LibraryEntry> entries = library.list();
+  out.matches.reserve(entries.size());
+  std::vector<const colour::Lab*> labs(geometries.size());
+  std::vector<colour::Lab> computed;
+  for (const LibraryEntry& e : entries) {
+    // The stored colours, by geometry name; all of the set's or none.
+    bool stored = !e.colour.empty();
+    for (std::size_t i = 0; stored && i < geometries.size(); ++i) {
+      labs[i] = nullptr;
+      for (const auto& [name, lab] : e.colour)
+        if (name == geometries[i].name) labs[i] = &lab;
+      stored = labs[i] != nullptr;
+    }
+    if (stored) {
+      ++out.from_index;
+    } else {
+      const AxfPaint p = library.load(e.name);
+      if (p.colour_space != colour::kLinearSrgb) {
+        out.skipped.push_back(e.name);
+        continue;
+      }
+      computed.clear();
+      for (const AngleColour& c : colour_at(*brdf::make_brdf(p.paint_spec()), geometries)) computed.push_back(c.lab);
+      for (std::size_t i = 0; i < geometries.size(); ++i) labs[i] = &computed[i];
+      ++out.from_files;
+    }
+    LibraryMatch m;
+    m.name = e.name;
+    m.worst_de00 = -1.0;
+    double sum = 0.0;
+    for (std::size_t i = 0; i < geometries.size(); ++i) {
+      const double d = colour::delta_e_2000(target.model[i].lab, *labs[i]);
+      sum += d;
+      if (d > m.worst_de00) {
+        m.worst_de00 = d;
+        m.worst_geometry = geometries[i].name;
+      }
+    }
+    m.mean_de00 = sum / static_cast<double>(geometries.size());
+    out.matches.push_back(std::move(m));
+  }
+  std::sort(out.matches.begin(), out.matches.end(), [](const LibraryMatch& a, const LibraryMatch& b) {
+    return a.worst_de00 != b.worst_de00 ? a.worst_de00 < b.worst_de00 : a.name < b.name;
+  });
+  return out;
+}
+
 }  // namespace paintlab::fit

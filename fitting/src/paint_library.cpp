@@ -1,5 +1,8 @@
 #include "paintlab/fitting/paint_library.h"
 
+#include "paintlab/brdf/paint.h"
+#include "paintlab/fitting/multiangle.h"
+
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <sys/file.h>
@@ -97,6 +100,13 @@ Json LibraryEntry::to_json() const {
   } else {
     j["residual"] = nullptr;
   }
+  if (colour.empty()) {
+    j["colour"] = nullptr;
+  } else {
+    Json values = Json::array();
+    for (const auto& [geometry, lab] : colour) values.push_back({{"geometry", geometry}, {"L", lab.L}, {"a", lab.a}, {"b", lab.b}});
+    j["colour"] = {{"geometries", kDefaultGeometrySet}, {"illuminant", "D65"}, {"observer_deg", 2}, {"values", values}};
+  }
   return j;
 }
 
@@ -116,6 +126,20 @@ LibraryEntry LibraryEntry::from_json(const Json& j, const std::string& where) {
     if (!r.is_object()) throw DataError(rw + ": expected an object or null");
     if (r.contains("log_rms")) e.log_rms = json_get<double>(r, "log_rms", rw);
     if (r.contains("bins_used")) e.bins_used = json_get<std::int64_t>(r, "bins_used", rw);
+  }
+  if (j.contains("colour") && !j["colour"].is_null()) {
+    const std::string cw = where + ".colour";
+    const Json& c = j["colour"];
+    if (!c.is_object() || !c.contains("values") || !c["values"].is_array())
+      throw DataError(cw + ": expected an object with an array 'values'");
+    const Json& values = c["values"];
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const std::string vw = cw + fmt::format(".values[{}]", i);
+      const Json& v = values[i];
+      if (!v.is_object()) throw DataError(vw + ": expected an object");
+      e.colour.push_back({json_get<std::string>(v, "geometry", vw),
+                          colour::Lab{json_get<double>(v, "L", vw), json_get<double>(v, "a", vw), json_get<double>(v, "b", vw)}});
+    }
   }
   if (e.file.empty() || e.file.find('/') != std::string::npos || e.file.front() == '.')
     throw DataError(where + ": key 'file': '" + e.file + "' is not a file name inside the library folder");
@@ -165,7 +189,8 @@ PaintLibrary::Index PaintLibrary::read_index() const {
                                         version, kLibraryFormatVersion));
   Index idx;
   idx.next_id = json_get_or<std::int64_t>(j, "next_id", 1, where);
-  const Json paints = json_get<Json>(j, "paints", where);
+  if (!j.contains("paints")) throw DataError(where + ": missing key 'paints'");
+  const Json& paints = j["paints"];  // a reference: a library's index may hold 10,000 paints
   if (!paints.is_array()) throw DataError(where + ": key 'paints': expected an array");
   std::set<std::string> names;
   for (std::size_t i = 0; i < paints.size(); ++i) {
@@ -274,6 +299,11 @@ LibraryEntry PaintLibrary::commit_added(Index& idx, std::vector<LibraryEntry>::i
   if (written.fit_quality) {
     entry.log_rms = written.fit_quality->log_rms;
     entry.bins_used = written.fit_quality->bins_used;
+  }
+  if (written.colour_space == colour::kLinearSrgb) {
+    const auto model = brdf::make_brdf(written.paint_spec());
+    for (const AngleColour& c : colour_at(*model, geometry_set(kDefaultGeometrySet)))
+      entry.colour.push_back({c.geometry.name, c.lab});
   }
 
   std::optional<std::string> old_file;

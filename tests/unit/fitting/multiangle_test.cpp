@@ -13,6 +13,8 @@
 #include "paintlab/brdf/paint.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/axf_file.h"
+#include "paintlab/fitting/paint_library.h"
+#include "paintlab/core/json.h"
 #include "paintlab/sim/paint.h"
 #include "sim_session.h"
 #include "test_util.h"
@@ -440,6 +442,103 @@ TEST(ColourCli, QcExitsZeroOnPassOneOnFailTwoOnBadInput) {
   const auto missing = test::run_paintlab("qc " + red + " /nonexistent/paint.toml");
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_THAT(missing.err, HasSubstr("/nonexistent/paint.toml"));
+}
+
+// ---- Colour match against a library ----
+
+// A library of the built-in paints, a red 2 % lighter than the red metallic, and a paint in
+// camera RGB (which has no CIELAB).
+fs::path colour_library(const fs::path& dir) {
+  const fs::path lib = dir / "lib";
+  PaintLibrary l = PaintLibrary::open(lib, true);
+  for (const char* name : {"red-metallic.toml", "solid-blue.toml", "silver-metallic.toml"})
+    l.add(axf_from_paint(brdf::load_paint_file(paint_file(name))), false);
+  brdf::PaintSpec red = brdf::load_paint_file(paint_file("red-metallic.toml"));
+  red.name = "red-lighter";
+  auto& ct = std::get<brdf::CookTorranceParams>(red.params);
+  ct.kd *= 1.02;
+  for (auto& lobe : ct.lobes) lobe.ks *= 1.02;
+  l.add(axf_from_paint(red), false);
+  AxfPaint camera = axf_from_paint(brdf::load_paint_file(paint_file("solid-blue.toml")));
+  camera.name = "blue-camera-rgb";
+  camera.colour_space = colour::kCameraRgb;
+  l.add(camera, false);
+  return lib;
+}
+
+TEST(LibraryMatch, RanksThePaintsByTheirWorstGeometryDeltaE) {
+  test::TempDir dir;
+  const fs::path lib_dir = colour_library(dir.path());
+  const PaintLibrary lib = PaintLibrary::open(lib_dir, false);
+  // The index stores each sRGB paint's five-angle CIELAB, the camera-RGB one none.
+  const auto set = geometry_set(kDefaultGeometrySet);
+  const LibraryEntry red = lib.find("red-metallic");
+  const auto truth = paint_colour(paint_file("red-metallic.toml"), set);
+  ASSERT_EQ(red.colour.size(), set.size());
+  for (std::size_t i = 0; i < set.size(); ++i) {
+    EXPECT_EQ(red.colour[i].first, set[i].name);
+    EXPECT_LT(colour::delta_e_2000(red.colour[i].second, truth.model[i].lab), 1e-6);
+  }
+  EXPECT_TRUE(lib.find("blue-camera-rgb").colour.empty());
+
+  const LibraryMatchResult r = library_match(lib, truth, set);
+  ASSERT_EQ(r.matches.size(), 4u);
+  EXPECT_EQ(r.from_index, 4u);
+  EXPECT_EQ(r.from_files, 0u);
+  EXPECT_EQ(r.skipped, std::vector<std::string>{"blue-camera-rgb"});
+  EXPECT_EQ(r.matches[0].name, "red-metallic");
+  EXPECT_NEAR(r.matches[0].worst_de00, 0.0, 1e-9);
+  EXPECT_EQ(r.matches[1].name, "red-lighter");
+  // Reflectance x 1.02 lifts L* by (L* + 16)(1.02^(1/3) - 1): 0.4-0.5 at these angles.
+  EXPECT_GT(r.matches[1].worst_de00, 0.2);
+  EXPECT_LT(r.matches[1].worst_de00, 1.0);
+  EXPECT_GT(r.matches[2].worst_de00, 10.0);
+  EXPECT_LE(r.matches[1].mean_de00, r.matches[1].worst_de00);
+}
+
+TEST(LibraryMatch, AVersionOneIndexStillReadsAndMatchesFromTheFiles) {
+  test::TempDir dir;
+  const fs::path lib_dir = colour_library(dir.path());
+  Json j = read_json_file(lib_dir / kLibraryIndexFile);
+  EXPECT_EQ(j["format_version"], 2);
+  j["format_version"] = 1;
+  for (Json& p : j["paints"]) p.erase("colour");
+  write_json_file(lib_dir / kLibraryIndexFile, j);
+  const PaintLibrary lib = PaintLibrary::open(lib_dir, false);
+  EXPECT_TRUE(lib.find("red-metallic").colour.empty());
+  const auto set = geometry_set("astm-e2194");
+  const LibraryMatchResult r = library_match(lib, paint_colour(paint_file("red-metallic.toml"), set), set);
+  EXPECT_EQ(r.from_index, 0u);
+  EXPECT_EQ(r.from_files, 4u);
+  ASSERT_EQ(r.matches.size(), 4u);
+  EXPECT_EQ(r.matches[0].name, "red-metallic");
+  EXPECT_EQ(r.matches[1].name, "red-lighter");
+}
+
+TEST(LibraryMatch, CommandListsThePaintsWithinMaxDe) {
+  test::TempDir dir;
+  const fs::path lib = colour_library(dir.path());
+  auto r = test::run_paintlab("library match --dir " + lib.string() + " " + paint_file("red-metallic.toml").string() +
+                              " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Json j = Json::parse(r.out);
+  ASSERT_EQ(j["matches"].size(), 2u);  // the default --max-de 1.0
+  EXPECT_EQ(j["matches"][0]["name"], "red-metallic");
+  EXPECT_EQ(j["matches"][1]["name"], "red-lighter");
+  EXPECT_THAT(r.err, HasSubstr("blue-camera-rgb"));
+  // PAINT may be a name in the library; nothing within a tight limit says which is closest.
+  r = test::run_paintlab("library match --dir " + lib.string() + " solid-blue --max-de 0.5 --geometries astm-e2194");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("solid-blue"));
+  r = test::run_paintlab("library match --dir " + lib.string() + " " + paint_file("pearlescent.toml").string() +
+                         " --max-de 0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("no paint within dE00 0.01; the closest is '"));
+  r = test::run_paintlab("library list --dir " + lib.string());
+  EXPECT_THAT(r.out, HasSubstr("L* a* b* AT 45as45"));
+  r = test::run_paintlab("library match --dir " + lib.string() + " no-such-paint");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("no-such-paint"));
 }
 
 }  // namespace

@@ -29,6 +29,7 @@ struct Lab {
   double L = 0.0, a = 0.0, b = 0.0;
   double chroma() const;     // C*ab
   double hue_deg() const;    // h_ab in [0, 360)
+  bool operator==(const Lab&) const = default;
 };
 
 // The white points: D50 is ICC's (lcms's cmsD50_XYZ: 0.9642, 1, 0.8249); D65 is sRGB's

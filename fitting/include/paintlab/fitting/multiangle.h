@@ -24,6 +24,7 @@
 #include "paintlab/brdf/merl.h"
 #include "paintlab/core/colour.h"
 #include "paintlab/core/json.h"
+#include "paintlab/fitting/paint_library.h"
 
 namespace paintlab::fit {
 
@@ -191,5 +192,27 @@ QcResult quality_control(const MultiAngleColour& standard, const MultiAngleColou
                          const std::vector<QcTolerance>& tolerances);
 Json qc_json(const QcResult& r);
 std::string qc_table(const QcResult& r);
+
+// ---- Colour match against a paint library ----
+
+struct LibraryMatch {
+  std::string name;            // the library paint
+  double worst_de00 = 0;       // the largest CIEDE2000 over the geometries
+  std::string worst_geometry;  // where it is
+  double mean_de00 = 0;
+};
+
+struct LibraryMatchResult {
+  std::vector<LibraryMatch> matches;  // every comparable paint, best (smallest worst_de00) first
+  std::size_t from_index = 0;         // colours read from the index (no file opened)
+  std::size_t from_files = 0;         // colours computed from the paint file (a version-1 entry, another set)
+  std::vector<std::string> skipped;   // paints without CIELAB (camera RGB), by name
+};
+
+// `paintlab library match`: the library's paints ranked by their worst-geometry dE00 against
+// `target` (evaluated at `geometries`). Colours stored in the index serve when they hold every
+// geometry; otherwise the paint's file is read (checksum checked).
+LibraryMatchResult library_match(const PaintLibrary& library, const MultiAngleColour& target,
+                                 const std::vector<Geometry>& geometries);
 
 }  // namespace paintlab::fit

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "paintlab/core/colour.h"
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/axf_file.h"
 
@@ -20,7 +21,10 @@ namespace paintlab::fit {
 
 inline constexpr const char* kLibraryIndexFile = "index.json";
 inline constexpr const char* kLibraryFormat = "paintlab-library";
-inline constexpr int kLibraryFormatVersion = 1;
+// Version 2 stores each paint's CIELAB at the five-angle geometries (LibraryEntry::colour);
+// version-1 indexes still read (their entries have no colour until the paint is added again;
+// `library match` computes it from the file meanwhile).
+inline constexpr int kLibraryFormatVersion = 2;
 
 struct LibraryEntry {
   std::string name;
@@ -32,6 +36,10 @@ struct LibraryEntry {
   std::string sample;      // provenance sample name ("" when unknown)
   std::optional<double> log_rms;         // fit residual, when the paint is a fit
   std::optional<std::int64_t> bins_used;
+  // CIELAB (D65, 2 deg observer) at each geometry of multiangle.h's default set, by geometry
+  // name in the set's order; empty for a paint in camera RGB (no colour calibration) or an
+  // entry of a version-1 index.
+  std::vector<std::pair<std::string, colour::Lab>> colour;
 
   Json to_json() const;
   static LibraryEntry from_json(const Json& j, const std::string& where);
