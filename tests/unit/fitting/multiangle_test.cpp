@@ -282,13 +282,22 @@ TEST(ColourCli, ASessionsSamplesBesideTheModel) {
       EXPECT_LT(std::abs(R - truth), 4.0 * se + 0.002 * truth);
     }
   }
+  // The model of a fit made now against the truth, evaluated independently in this test.
   r = test::run_paintlab(common + " --lobes 2");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   j = Json::parse(r.out);
-  for (const Json& g : j["geometries"]) {
-    SCOPED_TRACE(g["name"].get<std::string>());
-    std::printf("%s: fit L* %.2f against measured: dE00 %.3f\n", g["name"].get<std::string>().c_str(),
-                g["model"]["L"].get<double>(), g["de00"].get<double>());
+  const auto set = geometry_set("astm-e2194");
+  for (std::size_t i = 0; i < set.size(); ++i) {
+    const Json& g = j["geometries"][i];
+    SCOPED_TRACE(set[i].name);
+    const Json& m = g["model"];
+    const colour::Lab fitted{m["L"].get<double>(), m["a"].get<double>(), m["b"].get<double>()};
+    const colour::Lab truth =
+        reference_lab(reference_ct_reflectance(*spec.cook_torrance(), set[i].towards_light(), set[i].towards_viewer()));
+    const double de_truth = colour::delta_e_2000(fitted, truth);
+    std::printf("%s: fit L* %.2f, truth %.2f: dE00 %.3f; against the measured samples %.3f\n", set[i].name.c_str(),
+                fitted.L, truth.L, de_truth, g["de00"].get<double>());
+    EXPECT_LT(de_truth, 0.3);
     EXPECT_LT(g["de00"].get<double>(), 0.6);
   }
 }
@@ -439,6 +448,15 @@ TEST(ColourCli, QcExitsZeroOnPassOneOnFailTwoOnBadInput) {
   EXPECT_THAT(bad_set.err, HasSubstr("five-angels"));
   const auto below = test::run_paintlab("colour " + red + " --geometries /nonexistent/set.toml");
   EXPECT_EQ(below.exit_code, 2);
+  test::TempDir dir;
+  {
+    std::ofstream f(dir / "tol.toml");
+    f << "geometries = \"five-angle\"\n[[tolerance]]\ngeometry = \"45as15\"\nde00 = 1.0\n";
+  }
+  const auto tol = test::run_paintlab("qc " + red + " " + red + " --tolerances " + (dir / "tol.toml").string());
+  EXPECT_EQ(tol.exit_code, 2);
+  EXPECT_THAT(tol.err, HasSubstr("tol.toml:1"));
+  EXPECT_THAT(tol.err, HasSubstr("45as25 of set 'five-angle' has no [[tolerance]]"));
   const auto missing = test::run_paintlab("qc " + red + " /nonexistent/paint.toml");
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_THAT(missing.err, HasSubstr("/nonexistent/paint.toml"));
