@@ -4,7 +4,7 @@
 # crash, sanitizer report, leak or hang (libFuzzer writes the input as crash-*/leak-*/timeout-*
 # into build-fuzz/findings/HARNESS/).
 # Usage: bash scripts/fuzz.sh [SECONDS] [HARNESS...]   (harnesses: rig_toml paint_toml
-#        records_json exr merl axf; default all). Set up with scripts/setup.sh first.
+#        records_json exr merl axf colour_toml; default all). Set up with scripts/setup.sh first.
 #        PAINTLAB_FUZZ_BUILD_DIR picks the build folder (default build-fuzz);
 #        PAINTLAB_FUZZ_ARGS adds libFuzzer flags (long runs: "-runs=1000000 -detect_leaks=0").
 set -euo pipefail
@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-30}
 shift || true
 harnesses=("$@")
-[ ${#harnesses[@]} -gt 0 ] || harnesses=(rig_toml paint_toml records_json exr merl axf)
+[ ${#harnesses[@]} -gt 0 ] || harnesses=(rig_toml paint_toml records_json exr merl axf colour_toml)
 BUILD=${PAINTLAB_FUZZ_BUILD_DIR:-build-fuzz}
 # A folder already configured with PAINTLAB_FUZZ=ON (.ci/run's sanitizer build, which also
 # holds the test programs) is used as it is; otherwise a fuzz-only build is configured.
