@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <regex>
@@ -223,7 +224,8 @@ namespace {
 // scatter where that exceeds the variances (or where there are no variances).
 template <class Bin>
 MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float>* noise_variance,
-                           const std::vector<std::pair<double, const Bin*>>& chosen, const brdf::HalfDiff& target) {
+                           const std::vector<std::pair<double, const Bin*>>& chosen, const brdf::HalfDiff& target,
+                           double radius_deg) {
   MeasuredColour m;
   const std::size_t N = chosen.size();
   bool have_variance = true, positive = true;
@@ -242,6 +244,11 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
       var = table.variance(b);
     have_variance = have_variance && (var > 0.0).all();
     w[i] = (var > 0.0).all() ? Eigen::Array3d(count / var) : Eigen::Array3d::Constant(count);
+    // A tricube kernel on the distance (LOESS): the nearest bins count most, so that the
+    // curvature of a lobe's tail across the neighbourhood biases the estimate less.
+    const double u = std::min(chosen[i].first / radius_deg, 1.0);
+    const double k = 1.0 - u * u * u;
+    w[i] *= std::max(k * k * k, 1e-3);
     v[i] = table.value(b);
     positive = positive && (v[i] > 0.0).all();
     const Eigen::Vector3d c = table.mean_coords(b);
@@ -250,9 +257,29 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
     if (dphi < -kPi / 2) dphi += kPi;
     x[i] = {1.0, c[0] - target.theta_h, c[1] - target.theta_d, std::sin(target.theta_h) * dphi};
   }
+  // A slope is fitted only along a coordinate the neighbours span on both sides of the target
+  // (by 0.05 deg at least): a light position fixes the angle between light and camera, so a
+  // sparse sweep's neighbours may all lie at one theta_d, off the target's; extrapolating along
+  // that coordinate would amplify noise without bound. Along such a coordinate the value is
+  // the neighbours' (and the radius reported says how far they are).
+  constexpr double kSpan = 0.05 * kPi / 180.0;
+  std::array<bool, 4> use{true, false, false, false};
+  for (int k = 1; k < 4; ++k) {
+    double lo = 0.0, hi = 0.0;
+    for (const auto& xi : x) {
+      lo = std::min(lo, xi[k]);
+      hi = std::max(hi, xi[k]);
+    }
+    use[static_cast<std::size_t>(k)] = lo < -kSpan && hi > kSpan;
+  }
   constexpr std::size_t kMinForSlope = 8;
   for (int ch = 0; ch < 3; ++ch) {
     double value = 0.0, variance = 0.0;
+    double v_lo = std::numeric_limits<double>::infinity(), v_hi = 0.0;
+    for (std::size_t i = 0; i < N; ++i) {
+      v_lo = std::min(v_lo, v[i][ch]);
+      v_hi = std::max(v_hi, v[i][ch]);
+    }
     if (positive && N >= kMinForSlope) {
       // ln f: weights w f^2 (the delta method), so that the weights stay inverse variances.
       Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
@@ -262,9 +289,15 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
         A += wi * x[i] * x[i].transpose();
         rhs += wi * y * x[i];
       }
-      // A whisper of ridge on the slopes keeps a neighbourhood without spread in one
-      // coordinate (a single row of bins) solvable; the intercept is not damped.
-      for (int k = 1; k < 4; ++k) A(k, k) += 1e-12 * A(0, 0);
+      // Coordinates without a slope: their row and column out, the diagonal kept (beta 0).
+      for (int k = 1; k < 4; ++k) {
+        if (use[static_cast<std::size_t>(k)]) continue;
+        const double d = A(0, 0);
+        A.row(k).setZero();
+        A.col(k).setZero();
+        A(k, k) = d;
+        rhs[k] = 0.0;
+      }
       const Eigen::LDLT<Eigen::Matrix4d> ldlt(A);
       const Eigen::Vector4d beta = ldlt.solve(rhs);
       double chi2 = 0.0;
@@ -276,6 +309,17 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
       const Eigen::Vector4d e0 = Eigen::Vector4d::UnitX();
       value = std::exp(beta[0]);
       variance = ldlt.solve(e0)[0] * scale * value * value;
+      // Interpolation, never extrapolation: an estimate outside the neighbours' values means
+      // the local fit does not describe them (their weighted mean serves instead).
+      if (!(value >= v_lo && value <= v_hi)) {
+        double sw = 0.0, swv = 0.0;
+        for (std::size_t i = 0; i < N; ++i) {
+          sw += w[i][ch];
+          swv += w[i][ch] * v[i][ch];
+        }
+        value = swv / sw;
+        variance = 1.0 / sw;
+      }
     } else {
       double sw = 0.0, swv = 0.0;
       for (std::size_t i = 0; i < N; ++i) {
@@ -333,7 +377,7 @@ std::vector<std::optional<MeasuredColour>> measured_colour(const brdf::MerlTable
       while (used < near.size() && near[used].first <= r) n += std::max<std::uint32_t>(table.count(near[used++].second->index), 1);
       if (n < options.min_samples) continue;
       const std::vector<std::pair<double, const Bin*>> chosen(near.begin(), near.begin() + static_cast<long>(used));
-      MeasuredColour m = estimate_at(table, noise_variance, chosen, hd);
+      MeasuredColour m = estimate_at(table, noise_variance, chosen, hd, r);
       m.lab = colour::srgb_to_lab(m.reflectance);
       m.n = n;
       m.angular_distance_deg = near[used - 1].first;

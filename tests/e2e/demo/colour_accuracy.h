@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "paintlab/core/json.h"
 
@@ -18,8 +19,18 @@ double relative_error(const Json& fit, const Json& truth);
 struct Fitted {
   Json truth, fit;
 };
-// `paintlab measure` of paints/NAME.toml on DIR/rig.toml (calibrated by the demo in DIR) and
-// `paintlab fit --lobes 2`; EXPECT failures when either fails (empty JSON then).
-Fitted measure_and_fit(const fs::path& demo_dir, const std::string& paint_name);
+// `paintlab measure` of paints/NAME.toml on DIR/rig.toml (calibrated by the demo in DIR) into
+// DIR/session-NAME and `paintlab fit --lobes N` into DIR/NAME.fit.json; EXPECT failures when
+// either fails (empty JSON then).
+Fitted measure_and_fit(const fs::path& demo_dir, const std::string& paint_name, int lobes = 2);
+
+// The paint file's, the measurement's and the fit's CIELAB at each five-angle geometry
+// (`paintlab colour`), for paints judged as a paint lab judges them: dE00 of the measured
+// values and of the fit against the paint's own.
+struct FiveAngle {
+  std::vector<std::string> names;
+  std::vector<double> measured_de00, fit_de00;
+};
+FiveAngle five_angle_against_truth(const fs::path& demo_dir, const std::string& paint_name);
 
 }  // namespace paintlab::colour_accuracy
