@@ -31,6 +31,17 @@ TEST(Colour, CiedeMatchesSharmasPairs) {
   EXPECT_EQ(pairs, 34);
 }
 
+// The parametric factors divide their term: a pure lightness difference counts half with
+// kL = 2, a pure chroma difference half with kC = 2 (the tolerance sets of paintlab qc).
+TEST(Colour, CiedeParametricFactorsScaleTheirTerm) {
+  const Lab a{50.0, 20.0, 10.0};
+  const Lab lighter{52.0, 20.0, 10.0};
+  EXPECT_NEAR(delta_e_2000(a, lighter, 2.0, 1.0, 1.0), delta_e_2000(a, lighter) / 2.0, 1e-9);
+  EXPECT_NEAR(delta_e_2000(a, lighter, 1.0, 2.0, 2.0), delta_e_2000(a, lighter), 1e-9);
+  const Lab more_chroma{50.0, 24.0, 12.0};  // the same hue angle
+  EXPECT_NEAR(delta_e_2000(a, more_chroma, 1.0, 2.0, 1.0), delta_e_2000(a, more_chroma) / 2.0, 1e-9);
+}
+
 TEST(Colour, SrgbWhiteIsLab100AndThePrimariesHaveTheirKnownLab) {
   const Lab white = srgb_to_lab(Rgb::Ones());
   EXPECT_NEAR(white.L, 100.0, 1e-9);
