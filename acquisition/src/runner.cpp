@@ -104,7 +104,13 @@ std::string RunSummary::describe(const fs::path& session_dir) const {
     s += fmt::format("sweep time on the rig clock: {:.1f} s; physical minimum {:.1f} s (motion {:.1f} + settle {:.1f} + "
                      "exposure {:.1f} + readout {:.1f}{}); ratio {:.3f}\n",
                      sweep_s, minimum, motion_s, settle_s, exposure_s, readout_s,
-                     wheel_moves > 0 ? fmt::format(" + filter wheel {:.1f} in {} moves", wheel_s, wheel_moves) : "",
+                     wheel_moves == 0 ? std::string()
+                     : wheel_min_s > 0.0
+                         ? fmt::format(" + filter wheel {:.1f} in {} moves, which took {:.1f}", wheel_min_s, wheel_moves,
+                                       wheel_s)
+                         : fmt::format(" + filter wheel {:.1f} in {} moves, as measured: set move_ms_per_slot for "
+                                       "its minimum",
+                                       wheel_s, wheel_moves),
                      minimum > 0 ? sweep_s / minimum : 0.0);
     s += fmt::format("frames: {}, retries: {}, wall time {:.1f} s\n", frames, retries, wall_s);
   }
@@ -234,8 +240,14 @@ RunSummary Runner::run(const std::atomic<bool>& stop) {
   // Puts the filter of `channel` in front of the lens: moved (retried like every device
   // operation), then read back; a wheel elsewhere after the retries stops the run.
   int position_count = 0;
+  int wheel_at = 0;  // the slot last read back (0: not yet read)
   auto move_wheel = [&](int channel) {
     const int slot = wheel_slots_[static_cast<std::size_t>(channel)];
+    // Already there (the serpentine order starts each position with the last filter): read
+    // back, no move.
+    if (wheel_at == 0 || wheel_at == slot)
+      wheel_at = retry([&] { return wheel_->position(); }, wheel_->id() + ": read position");
+    if (wheel_at == slot) return;
     const std::string what = fmt::format("{}: move to slot {} ({} filter)", wheel_->id(), slot, "RGB"[channel]);
     for (int attempt = 0;; ++attempt) {
       const double t0 = clock.now_s();
@@ -243,7 +255,12 @@ RunSummary Runner::run(const std::atomic<bool>& stop) {
       const int at = retry([&] { return wheel_->position(); }, wheel_->id() + ": read position");
       summary.wheel_s += clock.now_s() - t0;
       ++summary.wheel_moves;
-      if (at == slot) return;
+      const int from = wheel_at;
+      wheel_at = at;
+      if (at == slot) {
+        summary.wheel_min_s += wheel_->min_move_s(from, slot);  // a retried move's minimum is the last one's
+        return;
+      }
       if (attempt >= options_.max_retries)
         throw StopRun{false, fmt::format("{}: the wheel is at slot {} after {} attempts to reach slot {} ({} filter)",
                                          wheel_->id(), at, attempt + 1, slot, "RGB"[channel])};

@@ -51,6 +51,8 @@ FilterWheelSetup filter_wheel_config(const DeviceSection& section) {
     w.sim_slots = static_cast<int>(t.integer("slots", 6, Bounds::closed(6, 12)));
     if (w.sim_slots != 6 && w.sim_slots != 12) t.fail("slots", "must be 6 or 12 (the wheels' pcount)");
     w.serial.settle_s = t.number("settle_ms", w.serial.settle_s * 1e3, Bounds::non_negative()) * 1e-3;
+    // The simulated wheel turns at this speed, and the sweep's minimum counts it.
+    w.serial.move_s_per_slot = t.number("move_ms_per_slot", 200.0, Bounds::closed(1.0, 10000.0)) * 1e-3;
   }
   const int max_slot = w.kind == "sim" ? w.sim_slots : 12;
   const char* keys[3] = {"slot_r", "slot_g", "slot_b"};

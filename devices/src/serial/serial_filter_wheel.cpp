@@ -10,7 +10,9 @@
 
 #include <cerrno>
 #include <charconv>
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -64,6 +66,8 @@ void SerialFilterWheelConfig::check() const {
   if (!(poll_interval_s > 0))
     throw OptionError("SerialFilterWheelConfig::poll_interval_s", fmt::format("{}", poll_interval_s), "> 0");
   if (!(settle_s >= 0)) throw OptionError("SerialFilterWheelConfig::settle_s", fmt::format("{}", settle_s), ">= 0");
+  if (!(move_s_per_slot >= 0))
+    throw OptionError("SerialFilterWheelConfig::move_s_per_slot", fmt::format("{}", move_s_per_slot), ">= 0");
 }
 
 SerialFilterWheelConfig serial_filter_wheel_config(const ConfigTable& t) {
@@ -75,6 +79,7 @@ SerialFilterWheelConfig serial_filter_wheel_config(const ConfigTable& t) {
   c.retries = static_cast<int>(t.integer("retries", 2, Bounds::closed(0, 20)));
   c.move_timeout_s = t.number("move_timeout_ms", 5000.0, Bounds::positive()) * 1e-3;
   c.settle_s = t.number("settle_ms", 200.0, Bounds::non_negative()) * 1e-3;
+  c.move_s_per_slot = t.number("move_ms_per_slot", 0.0, Bounds::closed(0.0, 10000.0)) * 1e-3;
   return c;
 }
 
@@ -194,6 +199,13 @@ Result<int> SerialFilterWheel::slot_count() {
 }
 
 Result<int> SerialFilterWheel::position() { return query_int("pos?"); }
+
+double SerialFilterWheel::min_move_s(int from_slot, int to_slot) const {
+  if (!(config_.move_s_per_slot > 0.0)) return 0.0;
+  int steps = std::abs(to_slot - from_slot);
+  if (slots_ > 0) steps = std::min(steps, slots_ - steps);
+  return steps > 0 ? steps * config_.move_s_per_slot + config_.settle_s : 0.0;
+}
 
 Result<void> SerialFilterWheel::move_to(int slot) {
   Result<int> count = slot_count();

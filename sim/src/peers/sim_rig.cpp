@@ -46,6 +46,7 @@ SimRig::SimRig(const RigConfig& rig, SimRigOptions options) : cache_(std::make_s
     const dev::FilterWheelSetup setup = dev::filter_wheel_config(*rig.filter_wheel);
     SimFilterWheelOptions wo;
     wo.slots = setup.sim_slots;
+    wo.move_s_per_slot = setup.serial.move_s_per_slot;  // rig.toml's move_ms_per_slot
     wheel_ = std::make_unique<SimFilterWheel>(wo, *clock_);
     const auto& w = world_->config().camera.mono_weights;
     const auto& f = world_->config().filters;

@@ -101,6 +101,36 @@ TEST(SerialFilterWheel, ACommandErrorNamesTheCommandAndIsNotRetried) {
   EXPECT_EQ(rig.driver.position().value(), 1);
 }
 
+// The physical minimum of a move (the sweep's minimum counts it): slots the shorter way round
+// at move_ms_per_slot, plus the settle wait; the moves take within 5 % of it (the driver polls
+// pos? every 10 ms, so it sees the arrival at most 10 ms late).
+TEST(SerialFilterWheel, MovesTakeWithinFivePercentOfTheirPhysicalMinimum) {
+  sim::VirtualClock clock;
+  sim::SimFilterWheel wheel({}, clock);
+  dev::SerialFilterWheelConfig c = WheelRig::config(wheel.port(), 0.3);
+  c.settle_s = 0.05;  // the demo rig's
+  c.move_s_per_slot = 0.2;
+  dev::SerialFilterWheel driver(c, clock);
+  ASSERT_TRUE(driver.move_to(1));
+  EXPECT_NEAR(driver.min_move_s(1, 4), 3 * 0.2 + 0.05, 1e-12);
+  EXPECT_NEAR(driver.min_move_s(6, 1), 0.2 + 0.05, 1e-12);  // the shorter way round
+  EXPECT_EQ(driver.min_move_s(3, 3), 0.0);
+  double took = 0.0, minimum = 0.0;
+  int at = 1;
+  for (int slot : {2, 3, 2, 1, 4, 6, 1, 3}) {
+    const double t0 = clock.now_s();
+    ASSERT_TRUE(driver.move_to(slot));
+    took += clock.now_s() - t0;
+    minimum += driver.min_move_s(at, slot);
+    at = slot;
+  }
+  std::printf("8 moves: %.3f s, physical minimum %.3f s, ratio %.3f\n", took, minimum, took / minimum);
+  EXPECT_GE(took, minimum * 0.999);
+  EXPECT_LE(took, minimum * 1.05);
+  c.move_s_per_slot = 0.0;  // unknown: no minimum
+  EXPECT_EQ(dev::SerialFilterWheel(c, clock).min_move_s(1, 4), 0.0);
+}
+
 TEST(SerialFilterWheel, ATwelveSlotWheelIsCountedAndReached) {
   WheelRig rig(sim::SimFilterWheelOptions{.slots = 12});
   EXPECT_EQ(rig.driver.slot_count().value(), 12);
@@ -109,8 +139,10 @@ TEST(SerialFilterWheel, ATwelveSlotWheelIsCountedAndReached) {
 }
 
 TEST(SerialFilterWheel, RigTomlKeysAndBadPortsAreReportedByName) {
-  const ConfigTable t = ConfigTable::parse_string("port = \"/dev/ttyUSB0\"\nsettle_ms = 300\nbaud = 9600\n", "rig.toml");
+  const ConfigTable t = ConfigTable::parse_string(
+      "port = \"/dev/ttyUSB0\"\nsettle_ms = 300\nbaud = 9600\nmove_ms_per_slot = 250\n", "rig.toml");
   const dev::SerialFilterWheelConfig c = dev::serial_filter_wheel_config(t);
+  EXPECT_DOUBLE_EQ(c.move_s_per_slot, 0.25);
   EXPECT_EQ(c.port, "/dev/ttyUSB0");
   EXPECT_DOUBLE_EQ(c.settle_s, 0.3);
   EXPECT_EQ(c.baud, 9600);

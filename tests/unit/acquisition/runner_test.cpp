@@ -379,7 +379,9 @@ TEST(Runner, AFilterWheelTakesOneBracketPerFilterAndTheJournalSaysWhich) {
   RunSummary sum = runner.run(stop);
   ASSERT_TRUE(sum.complete) << sum.stop_reason;
   EXPECT_EQ(sum.frames, 4 * 3 * 3);
-  EXPECT_EQ(sum.wheel_moves, 12);
+  // 1 -> 4 -> 2 -> 6, then two moves a position: each starts at the filter the last one ended on.
+  EXPECT_EQ(sum.wheel_moves, 3 + 2 + 2 + 2);
+  EXPECT_EQ(wheel.moves, 9);
   // R, G, B, then B, G, R: the wheel starts where it stopped.
   ASSERT_EQ(filters_seen.size(), 4u);
   EXPECT_EQ(filters_seen[0], (std::vector<int>{0, 0, 0, 1, 1, 1, 2, 2, 2}));

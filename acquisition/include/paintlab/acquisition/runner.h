@@ -80,9 +80,13 @@ struct RunSummary {
   double settle_s = 0.0;        //   settle waits
   double exposure_s = 0.0;      //   sum of applied exposures
   double readout_s = 0.0;       //   frame readouts
-  double wheel_s = 0.0;         //   filter-wheel moves (as long as the wheel took, read on the rig clock)
+  double wheel_s = 0.0;         // filter-wheel moves as long as they took (read on the rig clock)
+  double wheel_min_s = 0.0;     //   their physical minimum (FilterWheel::min_move_s; 0 when unknown)
   int wheel_moves = 0;
-  double physical_min_s() const { return motion_s + settle_s + exposure_s + readout_s + wheel_s; }
+  // The wheel's part of the minimum: its modelled moves, or what they took when its speed is
+  // not known (rig.toml move_ms_per_slot).
+  double wheel_part_s() const { return wheel_min_s > 0.0 ? wheel_min_s : wheel_s; }
+  double physical_min_s() const { return motion_s + settle_s + exposure_s + readout_s + wheel_part_s(); }
   double wall_s = 0.0;          // wall-clock time of the run
   int frames = 0;
   int retries = 0;

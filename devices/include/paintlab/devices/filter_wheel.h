@@ -16,6 +16,14 @@ class FilterWheel {
   virtual Result<int> slot_count() = 0;     // 6 or 12 on the usual wheels
   virtual Result<int> position() = 0;       // the slot in front of the lens, read back
   virtual Result<void> move_to(int slot) = 0;
+  // The physical minimum of a move from one slot to another (the wheel's time per slot step,
+  // the shorter way round, plus its settle wait): what the sweep's physical minimum counts for
+  // a move. 0 when the wheel's speed is not known (the measured time then counts).
+  virtual double min_move_s(int from_slot, int to_slot) const {
+    (void)from_slot;
+    (void)to_slot;
+    return 0.0;
+  }
 };
 
 }  // namespace paintlab::dev

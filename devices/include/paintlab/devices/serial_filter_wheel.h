@@ -24,14 +24,17 @@ struct SerialFilterWheelConfig {
   double response_timeout_s = 1.0;  // per exchange
   int retries = 2;                  // extra attempts after a timeout, garbled echo or missed slot
   double move_timeout_s = 5.0;      // for one move to report its slot
-  double poll_interval_s = 0.05;    // pos? polling while moving
+  double poll_interval_s = 0.01;    // pos? polling while moving (an exchange takes ~1 ms at 115200 baud)
   double settle_s = 0.2;            // after the slot is reached (vibration)
+  // The wheel's time to turn by one slot (its datasheet's); 0: unknown. Only the sweep's
+  // physical minimum uses it (min_move_s); moves are always read back.
+  double move_s_per_slot = 0.0;
 
   void check() const;  // OptionError naming the field, value and rule
 };
 
 // Reads a [devices.filter_wheel] table (kind "serial"): port, baud, response_timeout_ms,
-// retries, move_timeout_ms, settle_ms. ConfigError naming file, line and key.
+// retries, move_timeout_ms, settle_ms, move_ms_per_slot. ConfigError naming file, line and key.
 SerialFilterWheelConfig serial_filter_wheel_config(const ConfigTable& table);
 
 class SerialFilterWheel final : public FilterWheel {
@@ -47,6 +50,9 @@ class SerialFilterWheel final : public FilterWheel {
   Result<int> slot_count() override;
   Result<int> position() override;
   Result<void> move_to(int slot) override;
+  // steps x move_s_per_slot + settle_s, steps the shorter way round the wheel's pcount slots
+  // (known after the first move); 0 when move_s_per_slot is 0.
+  double min_move_s(int from_slot, int to_slot) const override;
 
   int retry_count() const { return retries_; }  // exchanges and moves retried so far
 
