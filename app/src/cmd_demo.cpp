@@ -15,6 +15,7 @@
 
 #include "cli.h"
 #include "paintlab/fitting/compare.h"
+#include "paintlab/fitting/multiangle.h"
 #include "paintlab/fitting/output_guard.h"
 #include "paintlab/brdf/paint.h"
 #include "paintlab/calibration/rig_calibration.h"
@@ -108,6 +109,7 @@ void print_summary(const Json& s) {
                     s.value("fit_termination", std::string("no termination recorded"))));
   else if (s.contains("fit_converged"))
     say("fit: converged");
+  if (s.contains("colour")) say(fit::colour_against_truth_table(s["colour"]));
   say("calibration against the simulator's truth:");
   for (const auto& [k, v] : s["calibration"].items()) say(fmt::format("  {:<26} {:.5g}", k, v.get<double>()));
   say("timings (s):");
@@ -224,6 +226,14 @@ int run_demo(const DemoArgs& a) {
                       {"preview", preview.string()}, {"compare", compare.string()}, {"session", session.string()},
                       {"library", library.string()}, {"rig", R}};
   summary["quick"] = a.quick;
+  // A colour camera's measurement as a paint lab reads it: CIELAB at the five angles, of the
+  // paint, of the measured samples nearest each and of the fit (a monochrome one has none).
+  if (camera != sim::DemoCamera::Mono) {
+    fit::MeasuredInputOptions mo;
+    mo.fit_file = fit_file;
+    summary["colour"] = fit::colour_against_truth(
+        paint.spec, fit::measured_paint_colour(session, fit::geometry_set(fit::kDefaultGeometrySet), mo));
+  }
   write_json_file(dir / "summary.json", summary);
   print_summary(summary);
   if (!fit_converged) {

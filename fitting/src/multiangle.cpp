@@ -215,11 +215,12 @@ double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 
 namespace {
 
-// The value at the target from the chosen bins: a weighted local linear fit of ln f against
+// The value at the target from the chosen bins: a weighted local linear fit of f against
 // (theta_h, theta_d, sin theta_h phi_d) about the target, so that a lobe's slope across the
 // neighbourhood does not bias the estimate (a plain mean would: the neighbours are rarely
-// placed symmetrically); the weighted mean where the bins are too few for it or a value is
-// not positive. Weights: the bin mean's inverse variance (count / variance), or its count for
+// placed symmetrically); the weighted mean where the bins are too few for it. In f, not ln f:
+// an instrument reads the arithmetic mean over its aperture, and with sparkle (a few bins
+// bright with glints, most not) a fit of ln f would give the geometric mean, far below it. Weights: the bin mean's inverse variance (count / variance), or its count for
 // a table without variances. The standard error is the intercept's, scaled by the residual
 // scatter where that exceeds the variances (or where there are no variances).
 template <class Bin>
@@ -228,7 +229,7 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
                            double radius_deg) {
   MeasuredColour m;
   const std::size_t N = chosen.size();
-  bool have_variance = true, positive = true;
+  bool have_variance = true;
   std::vector<Eigen::Array3d> w(N), v(N);
   std::vector<Eigen::Vector4d> x(N);
   for (std::size_t i = 0; i < N; ++i) {
@@ -250,7 +251,6 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
     const double k = 1.0 - u * u * u;
     w[i] *= std::max(k * k * k, 1e-3);
     v[i] = table.value(b);
-    positive = positive && (v[i] > 0.0).all();
     const Eigen::Vector3d c = table.mean_coords(b);
     double dphi = c[2] - (target.phi_d < 0.0 ? target.phi_d + kPi : target.phi_d);
     if (dphi > kPi / 2) dphi -= kPi;
@@ -280,14 +280,12 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
       v_lo = std::min(v_lo, v[i][ch]);
       v_hi = std::max(v_hi, v[i][ch]);
     }
-    if (positive && N >= kMinForSlope) {
-      // ln f: weights w f^2 (the delta method), so that the weights stay inverse variances.
+    if (N >= kMinForSlope) {
       Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
       Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
       for (std::size_t i = 0; i < N; ++i) {
-        const double wi = w[i][ch] * v[i][ch] * v[i][ch], y = std::log(v[i][ch]);
-        A += wi * x[i] * x[i].transpose();
-        rhs += wi * y * x[i];
+        A += w[i][ch] * x[i] * x[i].transpose();
+        rhs += w[i][ch] * v[i][ch] * x[i];
       }
       // Coordinates without a slope: their row and column out, the diagonal kept (beta 0).
       for (int k = 1; k < 4; ++k) {
@@ -302,13 +300,13 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
       const Eigen::Vector4d beta = ldlt.solve(rhs);
       double chi2 = 0.0;
       for (std::size_t i = 0; i < N; ++i) {
-        const double r = std::log(v[i][ch]) - x[i].dot(beta);
-        chi2 += w[i][ch] * v[i][ch] * v[i][ch] * r * r;
+        const double r = v[i][ch] - x[i].dot(beta);
+        chi2 += w[i][ch] * r * r;
       }
       const double scale = have_variance ? std::max(1.0, chi2 / static_cast<double>(N - 4)) : chi2 / static_cast<double>(N - 4);
       const Eigen::Vector4d e0 = Eigen::Vector4d::UnitX();
-      value = std::exp(beta[0]);
-      variance = ldlt.solve(e0)[0] * scale * value * value;
+      value = beta[0];
+      variance = ldlt.solve(e0)[0] * scale;
       // Interpolation, never extrapolation: an estimate outside the neighbours' values means
       // the local fit does not describe them (their weighted mean serves instead).
       if (!(value >= v_lo && value <= v_hi)) {
@@ -332,7 +330,7 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
     m.reflectance[ch] = kPi * value;
     m.reflectance_stderr[ch] = kPi * std::sqrt(std::max(variance, 0.0));
   }
-  if (!have_variance && !(positive && N >= kMinForSlope))
+  if (!have_variance && N < kMinForSlope)
     m.reflectance_stderr.setConstant(std::numeric_limits<double>::quiet_NaN());
   return m;
 }
@@ -690,6 +688,55 @@ std::string qc_table(const QcResult& r) {
   const auto failed = std::count_if(r.angles.begin(), r.angles.end(), [](const QcAngle& a) { return !a.pass; });
   s += r.pass ? fmt::format("PASS: all {} geometries within tolerance\n", r.angles.size())
               : fmt::format("FAIL: {} of {} geometries out of tolerance\n", failed, r.angles.size());
+  return s;
+}
+
+Json colour_against_truth(const brdf::PaintSpec& truth, const MultiAngleColour& c) {
+  std::vector<Geometry> geometries;
+  for (const auto& a : c.model) geometries.push_back(a.geometry);
+  const std::vector<AngleColour> t = colour_at(*brdf::make_brdf(truth), geometries);
+  auto lab = [](const colour::Lab& x) { return Json{{"L", x.L}, {"a", x.a}, {"b", x.b}}; };
+  Json rows = Json::array();
+  double worst_fit = 0.0, worst_measured = 0.0;
+  for (std::size_t i = 0; i < geometries.size(); ++i) {
+    const double de_fit = colour::delta_e_2000(c.model[i].lab, t[i].lab);
+    worst_fit = std::max(worst_fit, de_fit);
+    Json r{{"name", geometries[i].name},
+           {"truth", lab(t[i].lab)},
+           {"fit", lab(c.model[i].lab)},
+           {"fit_de00", de_fit},
+           {"measured", nullptr},
+           {"measured_de00", nullptr}};
+    if (i < c.measured.size() && c.measured[i]) {
+      const double de_m = colour::delta_e_2000(c.measured[i]->lab, t[i].lab);
+      worst_measured = std::max(worst_measured, de_m);
+      r["measured"] = lab(c.measured[i]->lab);
+      r["measured"]["n"] = c.measured[i]->n;
+      r["measured_de00"] = de_m;
+    }
+    rows.push_back(std::move(r));
+  }
+  return Json{{"illuminant", "D65"},          {"observer_deg", 2},
+              {"geometries", std::move(rows)}, {"worst_fit_de00", worst_fit},
+              {"worst_measured_de00", worst_measured}, {"flop_index_truth", flop_index(t) ? Json(*flop_index(t)) : Json()},
+              {"flop_index_fit", c.flop ? Json(*c.flop) : Json()}};
+}
+
+std::string colour_against_truth_table(const Json& j) {
+  std::string s = "five-angle CIELAB (D65, 2 deg observer): the paint, the measurement, the fit; dE00 against the paint\n";
+  s += fmt::format("{:<9} {:>21}  {:>21} {:>6}  {:>21} {:>6}\n", "GEOMETRY", "PAINT L* a* b*", "MEASURED", "dE00",
+                   "FIT", "dE00");
+  auto lab = [](const Json& x) {
+    return x.is_null() ? std::string("-")
+                       : fmt::format("{:6.2f} {:6.2f} {:6.2f}", x["L"].get<double>(), x["a"].get<double>(),
+                                     x["b"].get<double>());
+  };
+  for (const Json& r : j["geometries"])
+    s += fmt::format("{:<9} {:>21}  {:>21} {:>6}  {:>21} {:>6.2f}\n", r["name"].get<std::string>(), lab(r["truth"]),
+                     lab(r["measured"]),
+                     r["measured_de00"].is_null() ? std::string("-")
+                                                  : fmt::format("{:.2f}", r["measured_de00"].get<double>()),
+                     lab(r["fit"]), r["fit_de00"].get<double>());
   return s;
 }
 

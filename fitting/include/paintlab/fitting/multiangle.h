@@ -22,6 +22,7 @@
 
 #include "paintlab/brdf/brdf.h"
 #include "paintlab/brdf/merl.h"
+#include "paintlab/brdf/paint.h"
 #include "paintlab/core/colour.h"
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/paint_library.h"
@@ -92,7 +93,7 @@ struct MultiAngleColour {
 
 // The measured samples nearest each geometry in a binned table (a session's, or a MERL
 // table): the bins within the smallest radius of `radii_deg` that holds `min_samples`
-// samples, and the value at the geometry from a weighted local linear fit of ln f over them
+// samples, and the value at the geometry from a weighted local linear fit of f over them
 // (so that a lobe's slope across the neighbourhood does not bias it; a plain mean below 8
 // bins). Weights: the bin mean's inverse variance from `noise_variance` (a session's per-sample
 // noise, BinnedTable::noise_variance; may be null), else the bin's own scatter from 5 samples,
@@ -192,6 +193,13 @@ QcResult quality_control(const MultiAngleColour& standard, const MultiAngleColou
                          const std::vector<QcTolerance>& tolerances);
 Json qc_json(const QcResult& r);
 std::string qc_table(const QcResult& r);
+
+// The simulator's truth beside a measurement and its fit at the same geometries (`paintlab
+// demo`'s summary.json "colour"): per geometry the truth's, the measurement's and the fit's
+// L*, a*, b* and the two dE00 against the truth; the worst of each.
+Json colour_against_truth(const brdf::PaintSpec& truth, const MultiAngleColour& measured_and_fit);
+// Its table for people.
+std::string colour_against_truth_table(const Json& colour);
 
 // ---- Colour match against a paint library ----
 
