@@ -280,7 +280,8 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
       v_lo = std::min(v_lo, v[i][ch]);
       v_hi = std::max(v_hi, v[i][ch]);
     }
-    if (N >= kMinForSlope) {
+    bool local = N >= kMinForSlope;
+    if (local) {
       Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
       Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
       for (std::size_t i = 0; i < N; ++i) {
@@ -309,29 +310,21 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
       variance = ldlt.solve(e0)[0] * scale;
       // Interpolation, never extrapolation: an estimate outside the neighbours' values means
       // the local fit does not describe them (their weighted mean serves instead).
-      if (!(value >= v_lo && value <= v_hi)) {
-        double sw = 0.0, swv = 0.0;
-        for (std::size_t i = 0; i < N; ++i) {
-          sw += w[i][ch];
-          swv += w[i][ch] * v[i][ch];
-        }
-        value = swv / sw;
-        variance = 1.0 / sw;
-      }
-    } else {
+      local = value >= v_lo && value <= v_hi;
+    }
+    if (!local) {
       double sw = 0.0, swv = 0.0;
       for (std::size_t i = 0; i < N; ++i) {
         sw += w[i][ch];
         swv += w[i][ch] * v[i][ch];
       }
       value = swv / sw;
-      variance = 1.0 / sw;
+      // Without variances the weights are counts, which say nothing of the scatter.
+      variance = have_variance ? 1.0 / sw : std::numeric_limits<double>::quiet_NaN();
     }
     m.reflectance[ch] = kPi * value;
     m.reflectance_stderr[ch] = kPi * std::sqrt(std::max(variance, 0.0));
   }
-  if (!have_variance && N < kMinForSlope)
-    m.reflectance_stderr.setConstant(std::numeric_limits<double>::quiet_NaN());
   return m;
 }
 
