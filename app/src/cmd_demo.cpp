@@ -202,6 +202,15 @@ int run_demo(const DemoArgs& a) {
   step({"render", axf.string(), "--out", preview.string()}, t_export, "the preview");
   step({"render", axf.string(), "--out", compare.string(), "--compare", session.string()}, t_export,
        "the measured-vs-model comparison");
+  // A colour camera's measurement as a paint lab reads it: CIELAB at the five angles, of the
+  // paint, of the measured samples nearest each and of the fit (a monochrome one has none).
+  Json colour;
+  if (camera != sim::DemoCamera::Mono) {
+    fit::MeasuredInputOptions mo;
+    mo.fit_file = fit_file;
+    colour = fit::colour_against_truth(
+        paint.spec, fit::measured_paint_colour(session, fit::geometry_set(fit::kDefaultGeometrySet), mo));
+  }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 
   Json fit = read_json_file(fit_file);
@@ -226,14 +235,7 @@ int run_demo(const DemoArgs& a) {
                       {"preview", preview.string()}, {"compare", compare.string()}, {"session", session.string()},
                       {"library", library.string()}, {"rig", R}};
   summary["quick"] = a.quick;
-  // A colour camera's measurement as a paint lab reads it: CIELAB at the five angles, of the
-  // paint, of the measured samples nearest each and of the fit (a monochrome one has none).
-  if (camera != sim::DemoCamera::Mono) {
-    fit::MeasuredInputOptions mo;
-    mo.fit_file = fit_file;
-    summary["colour"] = fit::colour_against_truth(
-        paint.spec, fit::measured_paint_colour(session, fit::geometry_set(fit::kDefaultGeometrySet), mo));
-  }
+  if (!colour.is_null()) summary["colour"] = colour;
   write_json_file(dir / "summary.json", summary);
   print_summary(summary);
   if (!fit_converged) {
