@@ -230,7 +230,8 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
   MeasuredColour m;
   const std::size_t N = chosen.size();
   bool have_variance = true;
-  std::vector<Eigen::Array3d> w(N), v(N);
+  std::vector<double> w(N);
+  std::vector<Eigen::Array3d> v(N), var_mean(N);  // values and their variances (of the bin means)
   std::vector<Eigen::Vector4d> x(N);
   for (std::size_t i = 0; i < N; ++i) {
     const std::size_t b = chosen[i].second->index;
@@ -244,7 +245,12 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
     else if (table.count(b) >= 5)
       var = table.variance(b);
     have_variance = have_variance && (var > 0.0).all();
-    w[i] = (var > 0.0).all() ? Eigen::Array3d(count / var) : Eigen::Array3d::Constant(count);
+    var_mean[i] = var / count;
+    // One weight per bin for all three channels, as an instrument averages one aperture for
+    // all of them: with per-channel weights a glint (achromatic) would enter each channel's
+    // average by another share and come out coloured. The inverse of the bin mean's total
+    // variance, or its count.
+    w[i] = (var > 0.0).all() ? count / var.sum() : count;
     // A tricube kernel on the distance (LOESS): the nearest bins count most, so that the
     // curvature of a lobe's tail across the neighbourhood biases the estimate less.
     const double u = std::min(chosen[i].first / radius_deg, 1.0);
@@ -272,58 +278,63 @@ MeasuredColour estimate_at(const brdf::MerlTable& table, const std::vector<float
     }
     use[static_cast<std::size_t>(k)] = lo < -kSpan && hi > kSpan;
   }
+  // The estimate is a linear combination sum c_i v_i with the same c_i for every channel: the
+  // intercept of the weighted local linear fit, or the weighted mean.
+  std::vector<double> coef(N, 0.0);
+  auto weighted_mean = [&] {
+    double sw = 0.0;
+    for (double wi : w) sw += wi;
+    for (std::size_t i = 0; i < N; ++i) coef[i] = w[i] / sw;
+  };
   constexpr std::size_t kMinForSlope = 8;
+  bool local = N >= kMinForSlope;
+  std::vector<Eigen::Vector4d> xu(x);  // the coordinates with a slope (the others 0)
+  for (auto& xi : xu)
+    for (int k = 1; k < 4; ++k)
+      if (!use[static_cast<std::size_t>(k)]) xi[k] = 0.0;
+  Eigen::LDLT<Eigen::Matrix4d> ldlt;
+  if (local) {
+    Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
+    for (std::size_t i = 0; i < N; ++i) A += w[i] * xu[i] * xu[i].transpose();
+    for (int k = 1; k < 4; ++k)
+      if (!use[static_cast<std::size_t>(k)]) A(k, k) = A(0, 0);  // beta_k = 0
+    ldlt.compute(A);
+    const Eigen::Vector4d row = ldlt.solve(Eigen::Vector4d::UnitX());  // e0^T A^-1 (A symmetric)
+    for (std::size_t i = 0; i < N; ++i) coef[i] = w[i] * row.dot(xu[i]);
+    // Interpolation, never extrapolation: an estimate outside the neighbours' values in any
+    // channel means the local fit does not describe them (their weighted mean serves instead).
+    for (int ch = 0; ch < 3 && local; ++ch) {
+      double value = 0.0, lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (std::size_t i = 0; i < N; ++i) {
+        value += coef[i] * v[i][ch];
+        lo = std::min(lo, v[i][ch]);
+        hi = std::max(hi, v[i][ch]);
+      }
+      local = value >= lo && value <= hi;
+    }
+  }
+  if (!local) weighted_mean();
+  // The standard error: the propagated variances of the bin means, or the residuals' about the
+  // fit (the sandwich estimator, HC0) where those are larger (sparkle, a model that does not
+  // fit) or where there are no variances.
   for (int ch = 0; ch < 3; ++ch) {
-    double value = 0.0, variance = 0.0;
-    double v_lo = std::numeric_limits<double>::infinity(), v_hi = 0.0;
-    for (std::size_t i = 0; i < N; ++i) {
-      v_lo = std::min(v_lo, v[i][ch]);
-      v_hi = std::max(v_hi, v[i][ch]);
-    }
-    bool local = N >= kMinForSlope;
+    double value = 0.0;
+    for (std::size_t i = 0; i < N; ++i) value += coef[i] * v[i][ch];
+    Eigen::Vector4d beta = Eigen::Vector4d::Zero();
+    beta[0] = value;
     if (local) {
-      Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
       Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
-      for (std::size_t i = 0; i < N; ++i) {
-        A += w[i][ch] * x[i] * x[i].transpose();
-        rhs += w[i][ch] * v[i][ch] * x[i];
-      }
-      // Coordinates without a slope: their row and column out, the diagonal kept (beta 0).
-      for (int k = 1; k < 4; ++k) {
-        if (use[static_cast<std::size_t>(k)]) continue;
-        const double d = A(0, 0);
-        A.row(k).setZero();
-        A.col(k).setZero();
-        A(k, k) = d;
-        rhs[k] = 0.0;
-      }
-      const Eigen::LDLT<Eigen::Matrix4d> ldlt(A);
-      const Eigen::Vector4d beta = ldlt.solve(rhs);
-      double chi2 = 0.0;
-      for (std::size_t i = 0; i < N; ++i) {
-        const double r = v[i][ch] - x[i].dot(beta);
-        chi2 += w[i][ch] * r * r;
-      }
-      const double scale = have_variance ? std::max(1.0, chi2 / static_cast<double>(N - 4)) : chi2 / static_cast<double>(N - 4);
-      const Eigen::Vector4d e0 = Eigen::Vector4d::UnitX();
-      value = beta[0];
-      variance = ldlt.solve(e0)[0] * scale;
-      // Interpolation, never extrapolation: an estimate outside the neighbours' values means
-      // the local fit does not describe them (their weighted mean serves instead).
-      local = value >= v_lo && value <= v_hi;
+      for (std::size_t i = 0; i < N; ++i) rhs += w[i] * v[i][ch] * xu[i];
+      beta = ldlt.solve(rhs);
     }
-    if (!local) {
-      double sw = 0.0, swv = 0.0;
-      for (std::size_t i = 0; i < N; ++i) {
-        sw += w[i][ch];
-        swv += w[i][ch] * v[i][ch];
-      }
-      value = swv / sw;
-      // Without variances the weights are counts, which say nothing of the scatter.
-      variance = have_variance ? 1.0 / sw : std::numeric_limits<double>::quiet_NaN();
+    double var_known = 0.0, var_resid = 0.0;
+    for (std::size_t i = 0; i < N; ++i) {
+      const double r = v[i][ch] - xu[i].dot(beta);
+      var_known += coef[i] * coef[i] * var_mean[i][ch];
+      var_resid += coef[i] * coef[i] * r * r;
     }
     m.reflectance[ch] = kPi * value;
-    m.reflectance_stderr[ch] = kPi * std::sqrt(std::max(variance, 0.0));
+    m.reflectance_stderr[ch] = kPi * std::sqrt(have_variance ? std::max(var_known, var_resid) : var_resid);
   }
   return m;
 }
