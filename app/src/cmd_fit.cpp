@@ -21,7 +21,10 @@
 #include "paintlab/core/json.h"
 #include "paintlab/core/log.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/brdf/paint.h"
+#include "paintlab/fitting/compare.h"
 #include "paintlab/fitting/coverage.h"
+#include "paintlab/fitting/export.h"
 #include "paintlab/fitting/extraction.h"
 #include "paintlab/fitting/hole_fill.h"
 #include "paintlab/fitting/pipeline.h"
@@ -96,6 +99,7 @@ struct BinArgs {
   std::string out;
   std::string coverage;  // default: beside --out
   bool fill = false;
+  std::string against;  // a known paint to compare the table with, by grazing band
   ExtractArgs extract;
 };
 
@@ -109,7 +113,15 @@ int run_bin(const BinArgs& a) {
     cov_spec = OutputSpec("--out", cov);
     cov_spec.beside = out;
   }
-  fit::OutputGuard().input("SESSION", dir).input("--calib", a.extract.calib).output({"--out", out}).output(cov_spec).check();
+  fit::OutputGuard()
+      .input("SESSION", dir)
+      .input("--calib", a.extract.calib)
+      .input("--against", a.against)
+      .output({"--out", out})
+      .output(cov_spec)
+      .check();
+  std::unique_ptr<brdf::Brdf> against;
+  if (!a.against.empty()) against = brdf::make_brdf(fit::load_any_paint(a.against).paint_spec());
   fit::BinnedSession s = fit::bin_session(session, bin_options(a.extract));
   say(s.stats.describe(s.binned.table.count_in_state(brdf::BinState::Measured)));
   if (s.binned.table.count_in_state(brdf::BinState::Measured) == 0)
@@ -117,6 +129,7 @@ int run_bin(const BinArgs& a) {
                                 a.session));
   brdf::MerlTable& table = s.binned.table;
   say(fit::coverage(table).describe());
+  if (against) say(fit::grazing_band_table(fit::compare_by_grazing_band(table, *against)));
   if (a.fill) {
     const fit::HoleFillReport r = fit::fill_holes(table);
     say(fmt::format("filled {} bins from the phi_d mirror and {} by push-pull ({} below the horizon left empty)",
@@ -162,6 +175,9 @@ void register_fit_commands(CLI::App& app) {
   bin->add_flag("--fill", bargs->fill,
                 "Fill the holes (phi_d mirror, then push-pull) before writing; the file cannot mark filled bins, "
                 "the coverage map's state channel does. Do not fit a filled table.");
+  bin->add_option("--against", bargs->against,
+                  "A known paint (.toml, fit.json, .axf.h5; in the session's colour space) to compare the measured "
+                  "bins with: log ratio per band of max(theta_i, theta_o), where the terminator and silhouette are");
   add_extract_options(bin, bargs->extract, false);
 }
 

@@ -18,6 +18,29 @@ void add_extract_options(CLI::App* sub, ExtractArgs& a, bool fits) {
   sets_fields(sub->add_option("--margin-px", a.margin_px, "Sphere pixels used: at least this far inside the silhouette"),
               {"ExtractionOptions::margin_px"})
       ->capture_default_str();
+  sets_fields(sub->add_option("--blur-px", a.blur_px,
+                              "Lens blur to undo (Gaussian sigma, pixels; -1: the calibration's highlight blur, "
+                              "light.json; 0: none): sharpens the clear coat's highlight and the pixels it spills "
+                              "into, to first order (docs/fitting.md \"Lens blur and the noise floor\")"),
+              {"ExtractionOptions::blur_sigma_px"})
+      ->capture_default_str();
+  sets_fields(sub->add_option("--max-blur-correction", a.max_blur_correction,
+                              "Skip a pixel whose blur correction is more than this fraction of its value (beyond "
+                              "its noise): the first-order correction no longer holds there"),
+              {"ExtractionOptions::max_blur_correction"})
+      ->capture_default_str();
+  sub->add_option("--too-sharp", a.too_sharp,
+                  "Pixels whose blur correction would not hold (--max-blur-correction): keep them as measured, or "
+                  "skip them (paints without sparkle: the clear coat's highlight no longer widens; never with flakes, "
+                  "whose glints are part of the paint's average)")
+      ->check(CLI::IsMember({"keep", "skip"}))
+      ->capture_default_str();
+  sets_fields(sub->add_option("--valid-margin-px", a.valid_margin_px,
+                              "Use a pixel only when every pixel this close is valid in the HDR image (next to "
+                              "pixels below the noise floor only the pixels noise lifted over it are valid: a "
+                              "bright bias at the terminator; next to saturated ones, their spill)"),
+              {"ExtractionOptions::valid_margin_px"})
+      ->capture_default_str();
   sub->add_option("--variance", a.variance,
                   "Sample variance: hdr (the HDR merge's var.* channels) or local (second differences with the "
                   "neighbouring pixels: pixel noise and flake sparkle)")
@@ -29,6 +52,10 @@ void add_extract_options(CLI::App* sub, ExtractArgs& a, bool fits) {
 fit::SessionBinOptions bin_options(const ExtractArgs& a) {
   fit::SessionBinOptions o;
   o.extraction.margin_px = a.margin_px;
+  o.extraction.blur_sigma_px = a.blur_px;
+  o.extraction.valid_margin_px = a.valid_margin_px;
+  o.extraction.max_blur_correction = a.max_blur_correction;
+  o.extraction.skip_too_sharp = a.too_sharp == "skip";
   o.extraction.variance = fit::variance_model_from_string(a.variance, "--variance");
   o.extraction.threads = a.threads;
   o.binning.estimator = fit::bin_estimator_from_string(a.estimator, "--estimator");

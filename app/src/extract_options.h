@@ -11,11 +11,15 @@ namespace paintlab::app {
 struct ExtractArgs {
   std::string calib;  // calibration folder; default: the one of the session's rig file
   double margin_px = fit::ExtractionOptions{}.margin_px;
+  double blur_px = fit::ExtractionOptions{}.blur_sigma_px;
+  int valid_margin_px = fit::ExtractionOptions{}.valid_margin_px;
+  double max_blur_correction = fit::ExtractionOptions{}.max_blur_correction;
+  std::string too_sharp = "keep";
   std::string variance = fit::to_string(fit::ExtractionOptions{}.variance);
   std::string estimator = fit::to_string(fit::BinningOptions{}.estimator);
   int threads = 0;
 };
-// Adds --calib, --margin-px, --variance, --estimator and --threads (`fits`: the command fits
+// Adds --calib, --margin-px, --blur-px, --valid-margin-px, --variance, --estimator and --threads (`fits`: the command fits
 // too, and its threads are the fit's as well).
 void add_extract_options(CLI::App* sub, ExtractArgs& a, bool fits);
 // The options the flags give (fit::bin_session checks them); DataError naming the flag.

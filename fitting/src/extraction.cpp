@@ -30,6 +30,10 @@ void ExtractionOptions::check() const {
   if (!(min_normal_up >= -1.0 && min_normal_up < 1.0)) fail("min_normal_up", min_normal_up, "in [-1, 1)");
   if (threads < 0) fail("threads", threads, ">= 0");
   if (images_in_flight < 0) fail("images_in_flight", images_in_flight, ">= 0");
+  if (valid_margin_px < 0 || valid_margin_px > 10) fail("valid_margin_px", valid_margin_px, "in [0, 10]");
+  if (!(blur_sigma_px <= 10.0)) fail("blur_sigma_px", blur_sigma_px, "<= 10 (< 0: the calibration's)");
+  if (!(max_blur_correction > 0.0 && max_blur_correction <= 1.0))
+    fail("max_blur_correction", max_blur_correction, "in (0, 1]");
 }
 
 constexpr EnumNames<VarianceModel, 2> kVarianceNames{{{VarianceModel::Hdr, "hdr"}, {VarianceModel::Local, "local"}}};
@@ -47,16 +51,29 @@ void ExtractionStats::add(const ExtractionStats& o) {
   invalid += o.invalid;
   non_finite += o.non_finite;
   grazing += o.grazing;
+  near_invalid += o.near_invalid;
+  blurred += o.blurred;
+  deblurred += o.deblurred;
+  unresolved += o.unresolved;
 }
 
 Json ExtractionStats::to_json() const {
   return {{"images", images},   {"sphere_pixels", sphere_pixels}, {"samples", samples},
-          {"invalid", invalid}, {"non_finite", non_finite},       {"grazing", grazing}};
+          {"invalid", invalid}, {"non_finite", non_finite},       {"grazing", grazing},
+          {"near_invalid", near_invalid}, {"blurred", blurred}, {"deblurred", deblurred},
+          {"unresolved", unresolved}};
 }
 
 std::string ExtractionStats::describe(std::size_t measured_bins) const {
-  return fmt::format("{} images: {} samples ({} invalid, {} grazing pixels skipped) in {} measured bins", images,
-                     samples, invalid, grazing, measured_bins);
+  return fmt::format("{} images: {} samples ({} invalid, {} grazing, {} next to invalid, {} blurred pixels skipped; {} "
+                     "sharpened, {} too sharp to correct) in {} measured bins",
+                     images, samples, invalid, grazing, near_invalid, blurred, deblurred, unresolved, measured_bins);
+}
+
+double blur_sigma_to_correct(const ExtractionOptions& options, const calib::RigCalibration& calibration) {
+  if (options.blur_sigma_px >= 0.0) return options.blur_sigma_px;
+  const auto& light = calibration.light();
+  return light && std::isfinite(light->blur_sigma_px) ? std::max(0.0, light->blur_sigma_px) : 0.0;
 }
 
 SphereSampler::SphereSampler(const calib::RigCalibration& calibration, const ExtractionOptions& options)
@@ -66,6 +83,7 @@ SphereSampler::SphereSampler(const calib::RigCalibration& calibration, const Ext
   const calib::CameraModel& camera = calibration.camera();
   width_ = camera.width_px;
   height_ = camera.height_px;
+  blur_sigma_px_ = blur_sigma_to_correct(options_, calibration);
   const calib::SphereFit& sphere = *calibration.sphere();
   const Mat3 rig_from_cam = calibration.cam_from_rig().inverse().matrix();
 
@@ -142,6 +160,79 @@ ExtractionStats SphereSampler::extract(const ExrImage& hdr, double table_angle_d
     float var[3];
     brdf::HalfDiff hd;
   };
+  // Lens blur, undone to first order where it matters (extraction.h): I - k lap(I) with
+  // k = sigma^2 / 2, applied to a channel when the correction exceeds twice its standard
+  // deviation (elsewhere it would only add noise). Where the correction is more than
+  // max_blur_correction of the corrected value beyond three of them in a channel, the
+  // expansion does not hold (structure as small as the blur: the far flanks of a highlight,
+  // a highlight a few pixels across, a glint) and the pixel is kept as measured, or left
+  // out with skip_too_sharp; where a neighbour is missing or may be saturated (its spill
+  // unknown), it is left out.
+  const double blur_k = 0.5 * blur_sigma_px_ * blur_sigma_px_;
+  enum class Deblur { Unchanged, Changed, Unresolved, Rejected, NonFinite };
+  auto deblur = [&](std::size_t i, float* rgb, float* var) {
+    const std::size_t w = static_cast<std::size_t>(width_);
+    const std::size_t x = i % w, y = i / w;
+    if (x < 1 || y < 1 || x + 1 >= w || y + 1 >= static_cast<std::size_t>(height_)) return Deblur::Rejected;
+    const std::size_t nb[4] = {i - 1, i + 1, i - w, i + w};
+    // An invalid neighbour holds a bound (hdr_merge.h): one at most this pixel's value is
+    // a dark one (below the noise floor), taken as a value uniform between 0 and it; a
+    // brighter one may be saturated, and its spill is unknown.
+    bool dark[4] = {false, false, false, false};
+    if (valid)
+      for (int q = 0; q < 4; ++q) {
+        if (valid->data()[nb[q]] > 0.5f) continue;
+        for (int c = 0; c < 3; ++c) {
+          const float u = value[c]->data()[nb[q]];
+          if (!(std::isfinite(u) && u <= rgb[c])) return Deblur::Rejected;
+        }
+        dark[q] = true;
+      }
+    float out[3], out_var[3];
+    bool changed = false;
+    for (int c = 0; c < 3; ++c) {
+      double sum = 0.0, var_sum = 0.0;
+      for (int q = 0; q < 4; ++q) {
+        const double u = value[c]->data()[nb[q]];
+        sum += u;
+        if (dark[q]) var_sum += u * u / 12.0;
+        else if (with_variance) var_sum += variance[c]->data()[nb[q]];
+      }
+      if (!std::isfinite(sum) || !std::isfinite(var_sum)) return Deblur::NonFinite;
+      const double correction = blur_k * (sum - 4.0 * rgb[c]);
+      const double sd = blur_k * std::sqrt(var_sum + 16.0 * var[c]);
+      const double corrected = rgb[c] - correction;
+      if (std::abs(correction) > options_.max_blur_correction * std::abs(corrected) + 3.0 * sd)
+        return options_.skip_too_sharp ? Deblur::Rejected : Deblur::Unresolved;
+      out[c] = rgb[c];
+      out_var[c] = var[c];
+      if (std::abs(correction) > 2.0 * sd) {
+        out[c] = static_cast<float>(corrected);
+        out_var[c] = static_cast<float>((1.0 + 4.0 * blur_k) * (1.0 + 4.0 * blur_k) * var[c] + blur_k * blur_k * var_sum);
+        changed = true;
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      rgb[c] = out[c];
+      var[c] = out_var[c];
+    }
+    return changed ? Deblur::Changed : Deblur::Unchanged;
+  };
+  // Censoring at the noise floor and spill from saturated pixels: next to pixels the merge
+  // marked invalid, a valid pixel is there because its noise lifted it over the floor (a
+  // bright bias at the terminator), or it holds light spilled from a saturated neighbour.
+  const int vm = options_.valid_margin_px;
+  auto near_invalid = [&](std::size_t i) {
+    if (!valid || vm <= 0) return false;
+    const int x = static_cast<int>(i % static_cast<std::size_t>(width_)), y = static_cast<int>(i / static_cast<std::size_t>(width_));
+    if (x < vm || y < vm || x + vm >= width_ || y + vm >= height_) return true;
+    for (int dy = -vm; dy <= vm; ++dy) {
+      const float* row = valid->data() + static_cast<std::size_t>(y + dy) * static_cast<std::size_t>(width_);
+      for (int dx = -vm; dx <= vm; ++dx)
+        if (!(row[x + dx] > 0.5f)) return true;
+    }
+    return false;
+  };
   std::vector<Value> values;
   values.reserve(pixels_.size());
   const bool local = options_.variance == VarianceModel::Local;
@@ -175,6 +266,23 @@ ExtractionStats SphereSampler::extract(const ExrImage& hdr, double table_angle_d
     if (cos_i < options_.min_cos || cos_o < options_.min_cos || !(e > 0.0)) {
       ++st.grazing;
       continue;
+    }
+    if (near_invalid(i)) {
+      ++st.near_invalid;
+      continue;
+    }
+    if (blur_k > 0.0) {
+      const Deblur d = deblur(i, v.rgb, v.var);
+      if (d == Deblur::Rejected) {
+        ++st.blurred;
+        continue;
+      }
+      if (d == Deblur::NonFinite) {
+        ++st.non_finite;
+        continue;
+      }
+      if (d == Deblur::Changed) ++st.deblurred;
+      if (d == Deblur::Unresolved) ++st.unresolved;
     }
     const double to_brdf = scale.brdf(1.0, e);  // 1 / (scale E)
     for (int c = 0; c < 3; ++c) {
@@ -233,8 +341,10 @@ BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCali
   extraction.check();
   if (frames.empty()) throw DataError("no HDR images to extract samples from");
   const SphereSampler sampler(calibration, extraction);
-  spdlog::info("extraction: {} sphere pixels per image (upper half, {:g} px inside the silhouette)",
-               sampler.pixel_count(), extraction.margin_px);
+  spdlog::info("extraction: {} sphere pixels per image (upper half, {:g} px inside the silhouette); lens blur {}",
+               sampler.pixel_count(), extraction.margin_px,
+               sampler.blur_sigma_px() > 0 ? fmt::format("of {:.3f} px corrected", sampler.blur_sigma_px())
+                                           : std::string("not corrected"));
   BinAccumulator acc(binning);
   const int threads = extraction.threads > 0 ? extraction.threads : tbb::this_task_arena::max_concurrency();
   const std::size_t in_flight =

@@ -44,6 +44,10 @@ BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOption
                {"session_sha256", acq::session_sha256(session.dir())},
                {"extraction", out.stats.to_json()},
                {"margin_px", options.extraction.margin_px},
+               {"blur_sigma_px", blur_sigma_to_correct(options.extraction, cal)},
+               {"valid_margin_px", options.extraction.valid_margin_px},
+               {"max_blur_correction", options.extraction.max_blur_correction},
+               {"too_sharp", options.extraction.skip_too_sharp ? "skip" : "keep"},
                {"variance", to_string(options.extraction.variance)},
                {"estimator", to_string(options.binning.estimator)}};
   return out;
@@ -54,6 +58,32 @@ SessionBinOptions bin_options_of_input(const Json& input, SessionBinOptions base
   if (input.contains("margin_px")) {
     if (!input["margin_px"].is_number()) throw DataError(fmt::format("{} input.margin_px: expected a number", where));
     base.extraction.margin_px = input["margin_px"].get<double>();
+  }
+  // The lens blur corrected; fits made before the correction existed record none.
+  if (input.contains("blur_sigma_px")) {
+    if (!input["blur_sigma_px"].is_number())
+      throw DataError(fmt::format("{} input.blur_sigma_px: expected a number", where));
+    base.extraction.blur_sigma_px = input["blur_sigma_px"].get<double>();
+  } else {
+    base.extraction.blur_sigma_px = 0.0;
+  }
+  if (input.contains("valid_margin_px")) {
+    if (!input["valid_margin_px"].is_number_integer())
+      throw DataError(fmt::format("{} input.valid_margin_px: expected an integer", where));
+    base.extraction.valid_margin_px = input["valid_margin_px"].get<int>();
+  } else {
+    base.extraction.valid_margin_px = 0;
+  }
+  if (input.contains("max_blur_correction")) {
+    if (!input["max_blur_correction"].is_number())
+      throw DataError(fmt::format("{} input.max_blur_correction: expected a number", where));
+    base.extraction.max_blur_correction = input["max_blur_correction"].get<double>();
+  }
+  if (input.contains("too_sharp")) {
+    const Json& t = input["too_sharp"];
+    if (!t.is_string() || (t != "keep" && t != "skip"))
+      throw DataError(fmt::format("{} input.too_sharp: expected \"keep\" or \"skip\"", where));
+    base.extraction.skip_too_sharp = t == "skip";
   }
   if (input.contains("variance")) {
     if (!input["variance"].is_string()) throw DataError(fmt::format("{} input.variance: expected a string", where));

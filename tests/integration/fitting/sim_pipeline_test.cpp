@@ -7,6 +7,7 @@
 //  - the layered pearlescent paint: the residual per region for 1, 2 and 3 lobes;
 //  - the binned table against the truth at measured bins: z-scores near N(0, 1).
 // The figures are printed; docs/fitting.md quotes them.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,6 +16,7 @@
 #include <optional>
 
 #include "paintlab/brdf/paint.h"
+#include "paintlab/fitting/compare.h"
 #include "paintlab/fitting/coverage.h"
 #include "paintlab/fitting/ct_fit.h"
 #include "paintlab/fitting/extraction.h"
@@ -73,13 +75,17 @@ void report(const char* what, const CookTorranceFit& f) {
               f.residual.regions[1].log_rms, f.residual.regions[2].log_rms, f.summary.iterations, f.summary.time_s);
 }
 
-void expect_within_targets(const brdf::CookTorranceParams& truth, const CookTorranceFit& f) {
+// The accuracy targets; `clear_coat_ks`: the tolerance on the ks of a clear-coat lobe (m <
+// 0.05), which the colour issue sets at 8 %.
+void expect_within_targets(const brdf::CookTorranceParams& truth, const CookTorranceFit& f,
+                           double clear_coat_ks = 0.03) {
   EXPECT_TRUE(f.summary.converged) << f.summary.termination;
   ASSERT_EQ(f.params.lobes.size(), truth.lobes.size());
   for (int c = 0; c < 3; ++c) EXPECT_THAT(f.params.kd[c], NearRel(truth.kd[c], 0.03)) << "kd " << c;
   for (std::size_t l = 0; l < truth.lobes.size(); ++l) {
     for (int c = 0; c < 3; ++c)
-      EXPECT_THAT(f.params.lobes[l].ks[c], NearRel(truth.lobes[l].ks[c], 0.03)) << "lobe " << l << " ks " << c;
+      EXPECT_THAT(f.params.lobes[l].ks[c], NearRel(truth.lobes[l].ks[c], truth.lobes[l].m < 0.05 ? clear_coat_ks : 0.03))
+          << "lobe " << l << " ks " << c;
     EXPECT_THAT(f.params.lobes[l].m, NearRel(truth.lobes[l].m, 0.02)) << "lobe " << l;
     EXPECT_THAT(f.params.lobes[l].r, NearRel(truth.lobes[l].r, 0.05)) << "lobe " << l;
   }
@@ -108,6 +114,57 @@ TEST(SimPipeline, SolidBlueTwoLobes) {
   const CookTorranceFit f = fit(binned("solid-blue", {}), 2);
   report("solid-blue", f);
   expect_within_targets(*spec.cook_torrance(), f);
+}
+
+// The terminator and the highlight (issue 14 item 7, docs/fitting.md "Lens blur and the
+// noise floor"): the dark metallic of paints/dark-metallic.toml, whose clear-coat highlight
+// is some 10^5 times its diffuse level, on the 640x480 rig with the demo's 0.5 px optics
+// blur (the light calibration states it) and a read noise whose floor the merge censors
+// at (pixels below it invalid). Without the corrections the blur widens the highlight
+// (m_eff^2 = m^2 + 2 (sigma / R)^2 for a sphere of R pixels) and spills it into the dark
+// pixels beside it, and next to the terminator only the pixels that noise lifted over the
+// floor are there; with them, every band of max(theta_i, theta_o) is back at the truth
+// and the fit meets the colour issue's targets.
+TEST(SimPipeline, DarkMetallicUnderLensBlurAndANoiseFloor) {
+  const brdf::PaintSpec spec = paint("dark-metallic");
+  test_support::SimSessionOptions o;
+  o.sparkle = false;
+  o.psf_sigma_px = 0.5;
+  o.read_noise_white = 3e-4;
+  o.step_deg = 2.0;
+  auto session = test_support::make_sim_session(sim::sim_paint(spec), o);
+  const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());
+  const auto truth = brdf::make_brdf(spec);
+  ExtractionOptions none;
+  none.blur_sigma_px = 0.0;
+  none.valid_margin_px = 0;
+  ExtractionStats before_stats, after_stats;
+  const BinnedTable before = bin_frames(session->frames, cal, none, {}, &before_stats);
+  ExtractionOptions corrected;  // the light calibration's blur; no sparkle: too sharp pixels skipped
+  corrected.blur_sigma_px = -1.0;
+  corrected.skip_too_sharp = true;
+  const BinnedTable after = bin_frames(session->frames, cal, corrected, {}, &after_stats);
+  const auto bands_before = compare_by_grazing_band(before.table, *truth);
+  const auto bands_after = compare_by_grazing_band(after.table, *truth);
+  std::printf("without the corrections: %s\n%s", before_stats.describe(0).c_str(),
+              grazing_band_table(bands_before).c_str());
+  std::printf("with them: %s\n%s", after_stats.describe(0).c_str(), grazing_band_table(bands_after).c_str());
+  EXPECT_GT(after_stats.deblurred, 0u);
+  EXPECT_GT(after_stats.near_invalid, 0u);
+  // Near 90 deg the censoring skews the log ratios bright (the 95th percentile far above
+  // the 5th below); with the corrections every band is centred and symmetric.
+  ASSERT_EQ(bands_after.size(), bands_before.size());
+  EXPECT_GT(bands_before.back().p95 + bands_before.back().p05, 0.1);
+  for (std::size_t k = 0; k < bands_after.size(); ++k) {
+    SCOPED_TRACE(fmt::format("{}-{} deg", bands_after[k].lo_deg, bands_after[k].hi_deg));
+    EXPECT_LT(std::abs(bands_after[k].median), 0.006);
+    EXPECT_LT(std::abs(bands_after[k].p95 + bands_after[k].p05), 0.02);
+  }
+  // Fitted without them (measured once, docs/fitting.md): the clear coat's r at its bound
+  // (1.0), its ks 11 % low and m 9 % high, the peak's log-RMS 0.12.
+  const CookTorranceFit f = fit(after, 3);
+  report("dark-metallic, blur and floor corrected", f);
+  expect_within_targets(*spec.cook_torrance(), f, 0.08);
 }
 
 // With flake sparkle single pixels vary by 100 % and more, so the fit pools phi_d bins to

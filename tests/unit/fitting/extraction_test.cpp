@@ -72,7 +72,8 @@ TEST(Extraction, BinnedSimulatedFramesAgreeWithTheTruthWithinTheNoise) {
   const std::string said = stats.describe(measured);
   std::printf("extraction: %s (%llu sphere pixels)\n", said.c_str(),
               static_cast<unsigned long long>(stats.sphere_pixels));
-  EXPECT_EQ(said, fmt::format("{} images: {} samples (0 invalid, {} grazing pixels skipped) in {} measured bins",
+  EXPECT_EQ(said, fmt::format("{} images: {} samples (0 invalid, {} grazing, 0 next to invalid, 0 blurred pixels "
+                              "skipped; 0 sharpened, 0 too sharp to correct) in {} measured bins",
                               session->frames.size(), t.samples_binned, stats.grazing, measured));
   EXPECT_EQ(stats.images, session->frames.size());
   EXPECT_EQ(stats.samples, t.samples_binned);
@@ -85,6 +86,61 @@ TEST(Extraction, BinnedSimulatedFramesAgreeWithTheTruthWithinTheNoise) {
   EXPECT_LT(std::abs(z.mean), 0.1);
   EXPECT_GT(z.sd, 0.85);
   EXPECT_LT(z.sd, 1.2);
+}
+
+// The lens blur and noise floor rules (docs/fitting.md "Lens blur and the noise floor") on a
+// few frames of a blurred, censored sweep: what each rule does is counted, the options
+// that turn them off leave every pixel to the plain extraction, and bad settings name the
+// field. (Their accuracy: fitting_sim's SimPipeline.DarkMetallicUnderLensBlurAndANoiseFloor.)
+TEST(Extraction, LensBlurAndNoiseFloorRulesAreCountedAndCanBeTurnedOff) {
+  test_support::SimSessionOptions o;
+  o.sparkle = false;
+  o.width_px = 320;
+  o.height_px = 240;
+  o.focal_length_mm = 25.0;
+  o.start_deg = 30.0;
+  o.stop_deg = 150.0;
+  o.step_deg = 60.0;
+  o.psf_sigma_px = 0.5;
+  o.read_noise_white = 3e-4;
+  auto session = test_support::make_sim_session(
+      sim::sim_paint(brdf::load_paint_file(test::source_dir() / "paints/dark-metallic.toml")), o);
+  const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());
+  ExtractionOptions off;
+  off.threads = 2;
+  off.valid_margin_px = 0;
+  EXPECT_DOUBLE_EQ(blur_sigma_to_correct(off, cal), 0.0);  // opt-in
+  ExtractionOptions on = off;
+  on.valid_margin_px = ExtractionOptions{}.valid_margin_px;  // on by default
+  on.blur_sigma_px = -1.0;
+  EXPECT_DOUBLE_EQ(blur_sigma_to_correct(on, cal), 0.5);  // the light calibration's
+  ExtractionStats with, without;
+  bin_frames(session->frames, cal, on, {}, &with);
+  bin_frames(session->frames, cal, off, {}, &without);
+  std::printf("rules on: %s\nrules off: %s\n", with.describe(0).c_str(), without.describe(0).c_str());
+  EXPECT_GT(with.deblurred, 100u);
+  EXPECT_GT(with.unresolved, 0u);     // the clear coat's highlight, a few pixels across
+  EXPECT_EQ(with.blurred, 0u);        // no invalid neighbour within the 2 px margin
+  EXPECT_GT(with.near_invalid, 100u);
+  EXPECT_EQ(without.deblurred + without.unresolved + without.blurred + without.near_invalid, 0u);
+  EXPECT_EQ(with.samples + with.blurred + with.near_invalid, without.samples);
+  EXPECT_EQ(with.invalid, without.invalid);
+  const Json j = with.to_json();
+  EXPECT_EQ(j["near_invalid"], with.near_invalid);
+  EXPECT_EQ(j["blurred"], with.blurred);
+  EXPECT_EQ(j["deblurred"], with.deblurred);
+  EXPECT_EQ(j["unresolved"], with.unresolved);
+  ExtractionOptions bad;
+  bad.max_blur_correction = 0.0;
+  EXPECT_THROW(bad.check(), OptionError);
+  bad = {};
+  bad.valid_margin_px = 11;
+  try {
+    bad.check();
+    ADD_FAILURE();
+  } catch (const OptionError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("valid_margin_px"));
+  }
 }
 
 TEST(Extraction, ImagesOfTheWrongSizeOrWithoutRadianceAreRejected) {

@@ -193,6 +193,23 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   const std::size_t measured = table.count_in_state(brdf::BinState::Measured);
   EXPECT_GT(measured, 10000u);
   EXPECT_LT(measured, brdf::kMerlBins / 2);  // holes stay holes (-1 in the file)
+  // Against the paint it is, band by band of max(theta_i, theta_o) (docs/fitting.md).
+  const fs::path merl2 = sim->dir / "blue2.binary";
+  const std::string paint_file = (test::source_dir() / "paints/solid-blue.toml").string();
+  r = test::run_paintlab("bin " + session.string() + calib + " --out " + merl2.string() + " --against " + paint_file);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("measured against the paint by max(theta_i, theta_o)"));
+  EXPECT_THAT(r.out, HasSubstr("85-90  deg"));
+  EXPECT_THAT(r.out, HasSubstr("0 next to invalid"));
+  r = test::run_paintlab("bin " + session.string() + calib + " --out " + (sim->dir / "x.binary").string() +
+                         " --against " + (sim->dir / "missing.toml").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("missing.toml"));
+  EXPECT_FALSE(fs::exists(sim->dir / "x.binary"));
+  r = test::run_paintlab("bin " + session.string() + calib + " --out " + (sim->dir / "x.binary").string() +
+                         " --blur-px 11");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--blur-px"));
 
   const fs::path out = sim->dir / "fit.json";
   r = test::run_paintlab("fit " + session.string() + calib + " --lobes 2 --out " + out.string());
@@ -204,6 +221,9 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   EXPECT_EQ(j["input"]["positions"].get<std::size_t>(), sim->frames.size());
   EXPECT_EQ(j["input"]["coverage"]["total"]["measured_bins"].get<std::size_t>(), measured);
   EXPECT_EQ(j["residual"]["noise_source"], "sample-noise");
+  // The extraction rules it was binned with: no blur in this calibration, the 2 px margin.
+  EXPECT_EQ(j["input"]["blur_sigma_px"].get<double>(), 0.0);
+  EXPECT_EQ(j["input"]["valid_margin_px"].get<int>(), 2);
   const brdf::PaintSpec fitted = brdf::paint_from_json(j, "fit.json");
   const auto* truth = spec.cook_torrance();
   const auto* ct = fitted.cook_torrance();

@@ -8,7 +8,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
+#include <limits>
 #include <memory>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -36,6 +38,13 @@ struct SimSessionOptions {
   double start_deg = 0.0, stop_deg = 180.0, step_deg = 2.0;
   double noise_rel = 0.02;
   bool sparkle = true;
+  double psf_sigma_px = 0.0;  // the lens blur (Gaussian sigma); the light calibration states it
+  // Read noise, as a fraction of the radiance of a white diffuser facing the LED, and the
+  // noise floor the merge censors at (in read-noise sigmas): a pixel whose noisy value is
+  // below it in any channel is invalid, with infinite variance, as hdr_merge.h writes (its
+  // value, below the floor there, a bound). 0: no read noise, every pixel valid.
+  double read_noise_white = 0.0;
+  double floor_sigmas = 3.0;
   std::uint64_t seed = 1;
 };
 
@@ -57,6 +66,7 @@ inline sim::SimConfig small_rig(const SimSessionOptions& o) {
   g.image_height_px = o.height_px;
   sim::SimConfig c = sim::SimConfig::defaults(g);
   c.seed = o.seed;
+  c.camera.psf_sigma_px = o.psf_sigma_px;
   return c;
 }
 
@@ -90,6 +100,8 @@ inline void write_truth_calibration(const sim::SimWorld& w, const std::filesyste
   const Vec3 cam = w.camera().centre_rig();
   l.model.zero_deg = w.config().led.zero_deg - rad_to_deg(std::atan2(cam.y(), cam.x()));
   l.model.profile_exponent = w.config().led.profile_exponent;
+  l.blur_sigma_px = w.config().camera.psf_sigma_px;
+  l.blur_source = "given";
   l.provenance = calib::Provenance::make("light", {}, devices);
   l.save(dir / calib::kLightFile);
   calib::ScaleCalibration sc;
@@ -110,6 +122,9 @@ inline std::unique_ptr<SimSession> make_sim_session(const sim::SimPaint& paint, 
   ro.mono = false;
   ro.sparkle = o.sparkle;
   std::filesystem::create_directories(s->dir.path() / "hdr");
+  const double arm = std::hypot(s->world->config().led.arm_radius_m, s->world->config().led.arm_height_m);
+  const double read = o.read_noise_white * s->world->config().led.intensity_w_sr / (std::numbers::pi * arm * arm);
+  const double floor = o.floor_sigmas * read;
   int index = 0;
   for (double a = o.start_deg; a <= o.stop_deg + 1e-9; a += o.step_deg, ++index) {
     const ImageF radiance = s->world->render_at(a, true, ro);
@@ -118,13 +133,21 @@ inline std::unique_ptr<SimSession> make_sim_session(const sim::SimPaint& paint, 
     std::vector<ImageF> value(3, ImageF(radiance.width(), radiance.height())), var = value;
     ImageF valid(radiance.width(), radiance.height(), 1, 1.0f);
     for (int y = 0; y < radiance.height(); ++y)
-      for (int x = 0; x < radiance.width(); ++x)
+      for (int x = 0; x < radiance.width(); ++x) {
+        bool censored = false;
         for (int c = 0; c < 3; ++c) {
           const double l = radiance.at(x, y, c);
-          const double sd = o.noise_rel * l;
-          value[c].at(x, y) = static_cast<float>(l + sd * gauss(rng));
+          const double sd = std::hypot(o.noise_rel * l, read);
+          const double v = l + sd * gauss(rng);
+          value[c].at(x, y) = static_cast<float>(v);
           var[c].at(x, y) = static_cast<float>(sd * sd);
+          censored = censored || (read > 0 && v < floor);
         }
+        if (censored) {
+          valid.at(x, y) = 0.0f;
+          for (int c = 0; c < 3; ++c) var[c].at(x, y) = std::numeric_limits<float>::infinity();
+        }
+      }
     for (int c = 0; c < 3; ++c) exr.add(names[c], std::move(value[c]));
     for (int c = 0; c < 3; ++c) exr.add(std::string("var.") + names[c], std::move(var[c]));
     exr.add("valid", std::move(valid));

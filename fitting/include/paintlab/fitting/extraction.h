@@ -9,6 +9,14 @@
 // merge marked invalid (saturated in every exposure, below the noise floor, hot), non-finite
 // values, and directions closer than min_cos to the horizon are skipped and counted.
 //
+// Lens blur (docs/fitting.md "Lens blur"): the optics spread every pixel's light over its
+// neighbours with a Gaussian of sigma = the calibrated highlight blur (light.json), which
+// broadens the clear coat's highlight and spills it into dark pixels beside it. Where the
+// spill is significant the value is sharpened to first order, I - (sigma^2 / 2) lap(I)
+// (5-point Laplacian; the variance propagated); where that correction is a large part of
+// the value (structure as small as the blur, where the expansion no longer holds: a
+// highlight a few pixels across, a glint) the pixel is kept as measured, and counted.
+//
 // The pixel geometry is the same for every image (camera and sphere do not move), so a
 // SphereSampler computes it once per session; each image then costs one pass over its
 // sphere pixels. bin_frames() streams images through a bounded pipeline: images are read
@@ -41,6 +49,24 @@ struct ExtractionOptions {
   double min_cos = 0.02;        // n.wi and n.wo at least this (directions off the horizon), [0, 1)
   double min_normal_up = 0.0;   // the "upper half": rig-frame z of the normal above this, [-1, 1)
   VarianceModel variance = VarianceModel::Hdr;
+  // Gaussian sigma of the lens blur to undo (pixels): 0 = no correction (the default), < 0 =
+  // the calibration's highlight blur (light.json; none when it has none). Opt-in: on a
+  // half-resolution rig the highlight blur overstates the optics' (0.35 px for 0.25) and the
+  // correction then overshoots the clear coat's peak (docs/fitting.md).
+  double blur_sigma_px = 0.0;
+  // A pixel whose blur correction exceeds this fraction of its corrected value by more
+  // than three standard deviations of the correction is kept as measured (the first-order
+  // correction errs by about half the square of the fraction there), (0, 1].
+  double max_blur_correction = 0.1;
+  // Leave such pixels out instead (counted as blurred): right for paints without sparkle,
+  // whose highlight's far flanks then no longer widen the clear coat; wrong with flakes,
+  // whose glints (structure as small as the blur) are part of the BRDF's average.
+  bool skip_too_sharp = false;
+  // A pixel is used only when every pixel within this many pixels (a square) is valid in
+  // the HDR image: next to pixels below the noise floor a valid pixel is a censored one
+  // (only the ones noise lifted over the floor are there: biased bright), next to saturated
+  // ones it holds their spill. [0, 10]; 0: only the pixel itself.
+  int valid_margin_px = 2;
   int threads = 0;              // bin_frames(): 0 = all cores
   int images_in_flight = 0;     // bin_frames(): 0 = 2 x threads
   void check() const;           // DataError naming the first violated rule
@@ -54,9 +80,14 @@ struct ExtractionStats {
   std::uint64_t invalid = 0;         // the HDR merge's valid = 0 (saturated, dark, hot)
   std::uint64_t non_finite = 0;
   std::uint64_t grazing = 0;         // n.wi or n.wo below min_cos, or unlit
+  std::uint64_t near_invalid = 0;    // a pixel within valid_margin_px invalid
+  std::uint64_t blurred = 0;         // next to a pixel that may be saturated; too sharp with skip_too_sharp
+  std::uint64_t deblurred = 0;       // samples whose value the blur correction changed
+  std::uint64_t unresolved = 0;      // samples kept as measured: the correction would not hold
   void add(const ExtractionStats& o);
   Json to_json() const;
-  // "N images: S samples (I invalid, G grazing pixels skipped) in B measured bins"
+  // "N images: S samples (I invalid, G grazing, V next to invalid, L blurred pixels skipped;
+  // D sharpened, U too sharp to correct) in B measured bins"
   std::string describe(std::size_t measured_bins) const;
 };
 
@@ -65,6 +96,10 @@ struct HdrFrame {
   std::filesystem::path path;
   double angle_deg = 0.0;
 };
+
+// The lens blur's sigma that extraction corrects (pixels; 0: none): the option when it is
+// >= 0, else the light calibration's highlight blur.
+double blur_sigma_to_correct(const ExtractionOptions& options, const calib::RigCalibration& calibration);
 
 class SphereSampler {
  public:
@@ -75,6 +110,8 @@ class SphereSampler {
   std::size_t pixel_count() const { return pixels_.size(); }
   int width() const { return width_; }
   int height() const { return height_; }
+  // The blur sigma corrected (pixels; 0: none), resolved from the options and calibration.
+  double blur_sigma_px() const { return blur_sigma_px_; }
 
   // Appends the samples of one HDR image (mono "Y" or "R", "G", "B" channels, with
   // optional "var.*" and "valid"; hdr_merge.h) to `out`. Throws DataError naming `source`
@@ -92,6 +129,7 @@ class SphereSampler {
   const calib::RigCalibration* cal_;
   ExtractionOptions options_;
   int width_ = 0, height_ = 0;
+  double blur_sigma_px_ = 0.0;
   std::vector<Pixel> pixels_;
 };
 

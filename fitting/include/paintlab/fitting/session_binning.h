@@ -28,7 +28,8 @@ struct BinnedSession {
   BinnedTable binned;
   ExtractionStats stats;
   // fit.json's "input": {"kind": "session", "path", "sample", "positions", "session_sha256",
-  // "extraction" (ExtractionStats), "margin_px", "variance", "estimator"}.
+  // "extraction" (ExtractionStats), "margin_px", "blur_sigma_px" (the lens blur
+  // corrected, 0: none), "valid_margin_px", "variance", "estimator"}.
   Json input;
 };
 
@@ -55,7 +56,8 @@ struct FitInput {
 };
 FitInput load_fit_input(const std::filesystem::path& path, const SessionBinOptions& options);
 
-// The options a fit.json's "input" records (margin_px, variance, estimator), on top of
+// The options a fit.json's "input" records (margin_px; blur_sigma_px and valid_margin_px:
+// 0 when absent, as fits made before them were binned; variance, estimator), on top of
 // `base`: a table binned again from the same session is the one that was fitted. Fields
 // the input does not name keep `base`'s value; a bad value is a DataError naming `where`.
 SessionBinOptions bin_options_of_input(const Json& input, SessionBinOptions base, const std::string& where);
