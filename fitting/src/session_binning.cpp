@@ -1,6 +1,8 @@
 #include "paintlab/fitting/session_binning.h"
 
 #include <fmt/format.h>
+
+#include <optional>
 #include <spdlog/spdlog.h>
 
 #include "paintlab/acquisition/session_reader.h"
@@ -55,29 +57,23 @@ BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOption
 
 SessionBinOptions bin_options_of_input(const Json& input, SessionBinOptions base, const std::string& where) {
   if (!input.is_object()) return base;
-  if (input.contains("margin_px")) {
-    if (!input["margin_px"].is_number()) throw DataError(fmt::format("{} input.margin_px: expected a number", where));
-    base.extraction.margin_px = input["margin_px"].get<double>();
-  }
-  // The lens blur corrected; fits made before the correction existed record none.
-  if (input.contains("blur_sigma_px")) {
-    if (!input["blur_sigma_px"].is_number())
-      throw DataError(fmt::format("{} input.blur_sigma_px: expected a number", where));
-    base.extraction.blur_sigma_px = input["blur_sigma_px"].get<double>();
-  } else {
-    base.extraction.blur_sigma_px = 0.0;
-  }
+  // A number the input records, or `absent` (nullopt: keep the base's value).
+  auto number = [&](const char* key, std::optional<double> absent) -> std::optional<double> {
+    if (!input.contains(key)) return absent;
+    if (!input[key].is_number()) throw DataError(fmt::format("{} input.{}: expected a number", where, key));
+    return input[key].get<double>();
+  };
+  if (auto v = number("margin_px", std::nullopt)) base.extraction.margin_px = *v;
+  if (auto v = number("max_blur_correction", std::nullopt)) base.extraction.max_blur_correction = *v;
+  // The lens blur and the valid margin: fits made before these rules existed record neither,
+  // and were binned without them.
+  base.extraction.blur_sigma_px = *number("blur_sigma_px", 0.0);
+  base.extraction.valid_margin_px = 0;
   if (input.contains("valid_margin_px")) {
-    if (!input["valid_margin_px"].is_number_integer())
-      throw DataError(fmt::format("{} input.valid_margin_px: expected an integer", where));
-    base.extraction.valid_margin_px = input["valid_margin_px"].get<int>();
-  } else {
-    base.extraction.valid_margin_px = 0;
-  }
-  if (input.contains("max_blur_correction")) {
-    if (!input["max_blur_correction"].is_number())
-      throw DataError(fmt::format("{} input.max_blur_correction: expected a number", where));
-    base.extraction.max_blur_correction = input["max_blur_correction"].get<double>();
+    const Json& v = input["valid_margin_px"];
+    if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > 10)
+      throw DataError(fmt::format("{} input.valid_margin_px: expected an integer in [0, 10], got {}", where, v.dump()));
+    base.extraction.valid_margin_px = v.get<int>();
   }
   if (input.contains("too_sharp")) {
     const Json& t = input["too_sharp"];

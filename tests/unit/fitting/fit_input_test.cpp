@@ -55,3 +55,36 @@ TEST(FitInput, NeitherATableNorASessionIsAnErrorNamingThePath) {
               HasSubstr("a folder without session.json"));
   EXPECT_THROW(load_fit_input(dir / "missing.binary", SessionBinOptions{}), IoError);
 }
+
+// `export --merl` bins a fitted session again as the fit's input records (docs/fitting.md):
+// the extraction rules it names, and none of the newer ones for a fit.json written before
+// them; a damaged record is an error naming the key.
+TEST(FitInput, TheBinningOptionsAFitRecordsAreReadBackAndOldFitsKeepTheirs) {
+  const Json recorded = {{"margin_px", 4.0},          {"blur_sigma_px", 0.6},   {"valid_margin_px", 3},
+                         {"max_blur_correction", 0.2}, {"too_sharp", "skip"},    {"variance", "local"},
+                         {"estimator", "median-of-means"}};
+  const SessionBinOptions o = bin_options_of_input(recorded, {}, "fit.json");
+  EXPECT_EQ(o.extraction.margin_px, 4.0);
+  EXPECT_EQ(o.extraction.blur_sigma_px, 0.6);
+  EXPECT_EQ(o.extraction.valid_margin_px, 3);
+  EXPECT_EQ(o.extraction.max_blur_correction, 0.2);
+  EXPECT_TRUE(o.extraction.skip_too_sharp);
+  EXPECT_EQ(o.extraction.variance, VarianceModel::Local);
+  EXPECT_EQ(o.binning.estimator, BinEstimator::MedianOfMeans);
+  // A fit.json from before the blur and margin rules: binned without them.
+  const SessionBinOptions old = bin_options_of_input(Json{{"margin_px", 3.0}}, {}, "old/fit.json");
+  EXPECT_EQ(old.extraction.blur_sigma_px, 0.0);
+  EXPECT_EQ(old.extraction.valid_margin_px, 0);
+  EXPECT_FALSE(old.extraction.skip_too_sharp);
+  for (const auto& [key, bad] : std::vector<std::pair<std::string, Json>>{
+           {"blur_sigma_px", "wide"}, {"valid_margin_px", 2.5}, {"valid_margin_px", 1000000000000LL},
+           {"too_sharp", "sometimes"}, {"max_blur_correction", Json::array()}}) {
+    SCOPED_TRACE(key);
+    try {
+      bin_options_of_input(Json{{key, bad}}, {}, "fit.json");
+      ADD_FAILURE() << "accepted " << bad.dump();
+    } catch (const DataError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("fit.json input." + key));
+    }
+  }
+}
