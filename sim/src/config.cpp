@@ -225,6 +225,8 @@ SimConfig SimConfig::parse(const ConfigTable& sim, const RigGeometry& nominal) {
     r.edge_samples = static_cast<int>(t->integer("edge_samples", r.edge_samples, Bounds::closed(1, 64)));
     r.edge_shading_samples =
         static_cast<int>(t->integer("edge_shading_samples", r.edge_shading_samples, Bounds::closed(1, 16)));
+    r.interior_samples = static_cast<int>(t->integer("interior_samples", r.interior_samples, Bounds::closed(1, 16)));
+    r.interior_tolerance = t->number("interior_tolerance", r.interior_tolerance, Bounds{0.0, 1.0, true, false});
     r.sparkle_floor = t->number("sparkle_floor", r.sparkle_floor, Bounds{0.0, 1e6, true, false});
     t->finish();
   }
@@ -262,6 +264,9 @@ void SimConfig::check() const {
   if (!(sphere.radius_m > 0)) fail("sphere.radius_m", "must be > 0");
   if (!(led.intensity_w_sr > 0)) fail("led.intensity_w_sr", "must be > 0");
   if (render.edge_samples < 1 || render.edge_shading_samples < 1) fail("render samples", "must be >= 1");
+  if (render.interior_samples < 1) fail("render.interior_samples", "must be >= 1");
+  if (!(render.interior_tolerance > 0 && render.interior_tolerance <= 1))
+    fail("render.interior_tolerance", "must be in (0, 1]");
   if (!(render.sparkle_floor > 0)) fail("render.sparkle_floor", "must be > 0");
   if (!(clock_speed >= 0)) fail("clock_speed", "must be >= 0");
   check_geometry(*this, [&](const char* section, const char* key, const std::string& message) {
@@ -327,6 +332,8 @@ Json SimConfig::to_json() const {
       {"render",
        {{"edge_samples", render.edge_samples},
         {"edge_shading_samples", render.edge_shading_samples},
+        {"interior_samples", render.interior_samples},
+        {"interior_tolerance", render.interior_tolerance},
         {"sparkle_floor", render.sparkle_floor}}},
       {"filters", {{"red", filters.red}, {"green", filters.green}, {"blue", filters.blue}}}};
 }

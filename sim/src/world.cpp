@@ -518,16 +518,28 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
   // each part instead of the whole BRDF plus the flake part).
   const brdf::Brdf* f_steady = sparkle ? st.paint.sparkle->steady_part.get() : nullptr;
 
-  auto write = [&](std::size_t i, const Rgb& v) {
+  auto write_to = [&](ImageF& img, std::size_t i, const Rgb& v) {
     if (ch == 1) {
-      out.data()[i] = static_cast<float>((v * mono).sum());
+      img.data()[i] = static_cast<float>((v * mono).sum());
     } else {
-      for (int k = 0; k < 3; ++k) out.data()[i * 3 + k] = static_cast<float>(v[k]);
+      for (int k = 0; k < 3; ++k) img.data()[i * 3 + k] = static_cast<float>(v[k]);
     }
   };
+  auto write = [&](std::size_t i, const Rgb& v) { write_to(out, i, v); };
+  // Pixel integration of the sphere's interior needs the image without glints (below).
+  const int n_sub = config_.render.interior_samples;
+  std::optional<ImageF> smooth_img;
+  if (n_sub > 1 && sparkle) smooth_img.emplace(s.w, s.h, ch, 0.0f);
+  ImageF* smooth = smooth_img ? &*smooth_img : nullptr;
 
-  // A sphere point q (relative to the centre); interior index j for sparkle, or -1.
-  auto shade_sphere = [&](const Vec3& q, long j) -> Rgb {
+  // Radiance at sphere point q (relative to the centre) in two parts: `smooth`, the paint's
+  // BRDF (the flakes at their average), and `flakes`, the part the flakes carry, so that a
+  // pixel whose flakes glint by a factor k shows smooth + (k - 1) flakes.
+  struct Parts {
+    Rgb smooth = Rgb::Zero();
+    Rgb flakes = Rgb::Zero();
+  };
+  auto shade_parts = [&](const Vec3& q) -> Parts {
     Vec3 p = s.c + q;
     Vec3 n = q / s.r;
     Vec3 wo = (s.cam_centre - p).normalized();
@@ -535,28 +547,34 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
     double r2 = d.squaredNorm();
     Vec3 wi = d / std::sqrt(r2);
     double cos_i = n.dot(wi);
-    if (cos_i <= 0 || n.dot(wo) <= 0) return Rgb::Zero();
+    if (cos_i <= 0 || n.dot(wo) <= 0) return {};
     double prof = light.profile(-wi.dot(light.axis));
-    if (prof <= 0) return Rgb::Zero();
+    if (prof <= 0) return {};
     Mat3 frame = frame_from_normal(n);
     Vec3 wi_l = frame.transpose() * wi, wo_l = frame.transpose() * wo;
-    if (f_flakes && j >= 0) {
-      Vec3 hv = (wi + wo).normalized();
-      double lambda = st.flakes_per_m2 * s.interior_area[static_cast<std::size_t>(j)] * (*st.cap)(n.dot(hv));
-      Eigen::Vector3f hf = hv.cast<float>() * (1.0f / 32767.0f);
-      float cos_l = static_cast<float>(st.cos_lifetime);
-      int k = 0;
-      for (std::uint32_t a = st.offsets[static_cast<std::size_t>(j)]; a < st.offsets[static_cast<std::size_t>(j) + 1]; ++a) {
-        const auto& nf = st.normals[a];
-        if (hf.x() * nf[0] + hf.y() * nf[1] + hf.z() * nf[2] >= cos_l) ++k;
-      }
-      double factor = (k + st.floor) / (lambda + st.floor);
-      Rgb f = f_steady ? Rgb(f_steady->eval(wi_l, wo_l) + factor * f_flakes->eval(wi_l, wo_l))
-                       : Rgb(f_paint.eval(wi_l, wo_l) + (factor - 1.0) * f_flakes->eval(wi_l, wo_l));
-      return f * light.color * (light.i0 * prof * cos_i / r2);
-    }
-    return f_paint.eval(wi_l, wo_l) * light.color * (light.i0 * prof * cos_i / r2);
+    const Rgb e = light.color * (light.i0 * prof * cos_i / r2);
+    if (!f_flakes) return {Rgb(f_paint.eval(wi_l, wo_l) * e), Rgb::Zero()};
+    const Rgb fl = f_flakes->eval(wi_l, wo_l);
+    const Rgb smooth = f_steady ? Rgb(f_steady->eval(wi_l, wo_l) + fl) : Rgb(f_paint.eval(wi_l, wo_l));
+    return {Rgb(smooth * e), Rgb(fl * e)};
   };
+  // The sparkle factor (K + eps) / (lambda + eps) of interior pixel j: K of its flakes lit
+  // for the half vector at sphere point q, lambda the count expected there.
+  auto flake_factor = [&](const Vec3& q, std::size_t j) -> double {
+    Vec3 p = s.c + q;
+    Vec3 n = q / s.r;
+    Vec3 hv = ((light.pos - p).normalized() + (s.cam_centre - p).normalized()).normalized();
+    double lambda = st.flakes_per_m2 * s.interior_area[j] * (*st.cap)(n.dot(hv));
+    Eigen::Vector3f hf = hv.cast<float>() * (1.0f / 32767.0f);
+    float cos_l = static_cast<float>(st.cos_lifetime);
+    int k = 0;
+    for (std::uint32_t a = st.offsets[j]; a < st.offsets[j + 1]; ++a) {
+      const auto& nf = st.normals[a];
+      if (hf.x() * nf[0] + hf.y() * nf[1] + hf.z() * nf[2] >= cos_l) ++k;
+    }
+    return (k + st.floor) / (lambda + st.floor);
+  };
+  auto shade_sphere = [&](const Vec3& q) -> Rgb { return shade_parts(q).smooth; };
 
   // Felt (single precision: it only needs to be right to ~1e-6 relative).
   const Vec3f led_f = light.pos.cast<float>(), axis_f = light.axis.cast<float>(), c_f = s.c.cast<float>();
@@ -588,14 +606,18 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
       switch (s.kind[i]) {
         case kInterior: {
           auto j = static_cast<std::size_t>(s.slot[i]);
-          write(i, shade_sphere(s.interior_q[j].cast<double>(), static_cast<long>(j)));
+          const Vec3 q = s.interior_q[j].cast<double>();
+          const Parts parts = shade_parts(q);
+          const double factor = sparkle ? flake_factor(q, j) : 1.0;
+          write(i, parts.smooth + (factor - 1.0) * parts.flakes);
+          if (smooth) write_to(*smooth, i, parts.smooth);
           break;
         }
         case kEdge: {
           const Scene::Edge& e = s.edges[static_cast<std::size_t>(s.slot[i])];
           Rgb sum = Rgb::Zero();
           const Vec3f* q = &s.edge_q[static_cast<std::size_t>(s.slot[i]) * s.edge_slots];
-          for (std::uint32_t k = 0; k < e.count; ++k) sum += shade_sphere(q[k].cast<double>(), -1);
+          for (std::uint32_t k = 0; k < e.count; ++k) sum += shade_sphere(q[k].cast<double>());
           Rgb v = (e.count ? Rgb(sum / e.count) : Rgb(Rgb::Zero())) * e.coverage + shade_bg(i) * (1.0 - e.coverage);
           write(i, v);
           break;
@@ -605,6 +627,63 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
       }
     }
   });
+
+  // A pixel integrates the radiance over its area. The pass above shades each interior
+  // pixel at its centre, which is the pixel's mean to second order:
+  // mean = centre + (f_xx + f_yy) / 24 px^2. Where that term (from the discrete Laplacian of
+  // the smooth image: the glints are whole-pixel events) is above interior_tolerance of the
+  // value, the pixel is integrated on an n x n grid: a highlight a few pixels across, the
+  // terminator. The flakes' factor stays the one counted at the centre.
+  if (n_sub > 1) {
+    const ImageF& sm = smooth ? *smooth : out;
+    const float* v = sm.data();
+    const double tol = config_.render.interior_tolerance;
+    float peak = 0.0f;
+    for (std::uint32_t p : s.interior_pixel)
+      for (int c = 0; c < ch; ++c) peak = std::max(peak, v[static_cast<std::size_t>(p) * ch + c]);
+    const double floor_abs = 1e-3 * tol * peak;
+    std::vector<std::vector<std::uint32_t>> rows(static_cast<std::size_t>(s.h));
+    detail::parallel_rows(s.h - 2, opt.threads, [&](int row) {
+      const int y = row + 1;
+      auto& list = rows[static_cast<std::size_t>(y)];
+      for (int x = 1; x + 1 < s.w; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * s.w + x;
+        if (s.kind[i] != kInterior) continue;
+        const std::size_t w = static_cast<std::size_t>(s.w);
+        for (int c = 0; c < ch; ++c) {
+          auto at = [&](std::size_t k) { return static_cast<double>(v[k * ch + c]); };
+          const double lap = at(i - 1) + at(i + 1) + at(i - w) + at(i + w) - 4.0 * at(i);
+          if (std::abs(lap) / 24.0 > tol * std::abs(at(i)) + floor_abs) {
+            list.push_back(static_cast<std::uint32_t>(i));
+            break;
+          }
+        }
+      }
+    });
+    std::vector<std::uint32_t> todo;
+    for (const auto& r : rows) todo.insert(todo.end(), r.begin(), r.end());
+    const double inv = 1.0 / n_sub;
+    detail::parallel_rows(static_cast<int>(todo.size()), opt.threads, [&](int t) {
+      const std::uint32_t i = todo[static_cast<std::size_t>(t)];
+      const int x = static_cast<int>(i % static_cast<std::uint32_t>(s.w));
+      const int y = static_cast<int>(i / static_cast<std::uint32_t>(s.w));
+      const auto j = static_cast<std::size_t>(s.slot[i]);
+      const double factor = sparkle ? flake_factor(s.interior_q[j].cast<double>(), j) : 1.0;
+      Parts sum;
+      int hits = 0;
+      for (int b = 0; b < n_sub; ++b)
+        for (int a = 0; a < n_sub; ++a) {
+          const Vec3 d = s.ray(x, y, (a + 0.5) * inv, (b + 0.5) * inv);
+          double tt;
+          if (!hit_sphere(s.cam_centre, d, s.c, s.r, &tt)) continue;
+          const Parts pa = shade_parts(s.cam_centre + tt * d - s.c);
+          sum.smooth += pa.smooth;
+          sum.flakes += pa.flakes;
+          ++hits;
+        }
+      if (hits > 0) write(i, (sum.smooth + (factor - 1.0) * sum.flakes) / hits);
+    });
+  }
 
   // The LED arm (a vertical post up to the LED and a bar along the table top) moves with
   // the table: test the pixels of its bounding box.

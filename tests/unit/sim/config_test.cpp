@@ -94,6 +94,8 @@ centre_m = [0.001, 0, -0.001]
 felt_albedo = 0.03
 [sim.render]
 edge_samples = 8
+interior_samples = 4
+interior_tolerance = 0.01
 sparkle_floor = 0.5
 )");
   EXPECT_EQ(c.seed, 7u);
@@ -110,12 +112,15 @@ sparkle_floor = 0.5
   EXPECT_DOUBLE_EQ(c.sphere.centre_rig_m.z(), -0.001);
   EXPECT_DOUBLE_EQ(c.scene.felt_albedo, 0.03);
   EXPECT_EQ(c.render.edge_samples, 8);
+  EXPECT_EQ(c.render.interior_samples, 4);
+  EXPECT_DOUBLE_EQ(c.render.interior_tolerance, 0.01);
   EXPECT_DOUBLE_EQ(c.render.sparkle_floor, 0.5);
   // The conversion gain fills the ADC with the full well unless given.
   EXPECT_NEAR(c.sensor.gain0_dn_per_e() * c.sensor.full_well_e, 65535.0 - 100.0, 1e-6);
   Json j = c.to_json();
   EXPECT_EQ(j["sensor"]["adc_bits"], 16);
   EXPECT_EQ(j["camera"]["rgb_gain"][2], 0.7);
+  EXPECT_EQ(j["render"]["interior_samples"], 4);
 }
 
 TEST(SimConfig, ErrorsNameFileLineAndKey) {
@@ -127,6 +132,9 @@ TEST(SimConfig, ErrorsNameFileLineAndKey) {
   EXPECT_THAT(error_of("[sim.sensor]\nadc_bits = 20\n"), HasSubstr("key 'sim.sensor.adc_bits': must be in [8, 16]"));
   EXPECT_THAT(error_of("[sim.camera]\ndist = [0.1, 0.2]\n"), HasSubstr("key 'sim.camera.dist': expected 5 values"));
   EXPECT_THAT(error_of("[sim]\nseed = \"x\"\n"), HasSubstr("key 'sim.seed': expected an integer"));
+  EXPECT_THAT(error_of("[sim.render]\ninterior_samples = 0\n"),
+              HasSubstr("rig.toml:18: key 'sim.render.interior_samples': must be in [1, 16]"));
+  EXPECT_THAT(error_of("[sim.render]\ninterior_tolerance = 0\n"), HasSubstr("key 'sim.render.interior_tolerance': must be in (0, 1]"));
   // Rules across keys.
   EXPECT_THAT(error_of("[sim.sensor]\nresponse = [1.5, -0.4]\n"),
               HasSubstr("rig.toml:18: key 'sim.sensor.response': the coefficients must sum to 1"));

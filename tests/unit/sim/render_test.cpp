@@ -44,7 +44,7 @@ Vec3 cv_ray_cam(const sim::SimWorld& w, double u, double v, Vec2* xn_out = nullp
 }
 
 // The radiance the test predicts for a sphere pixel, from the formulas of the design.
-bool predict_sphere(const sim::SimWorld& w, const brdf::Brdf& f, double angle_deg, int x, int y,
+bool predict_sphere(const sim::SimWorld& w, const brdf::Brdf& f, double angle_deg, double x, double y,
                     brdf::Rgb* out) {
   const sim::SimConfig& c = w.config();
   Rigid3 rig_from_cam = w.cam_from_rig().inverse();
@@ -257,4 +257,51 @@ TEST(Render, DeterministicAndThreadIndependent) {
   e.exposure_s = 0.01;
   EXPECT_EQ(a.capture(e).values(), b.capture(e).values());
   EXPECT_THROW(a.set_paint({nullptr, std::nullopt}), DataError);
+}
+
+// A camera pixel integrates the radiance over its area: a highlight 2-3 px across is the mean
+// over each pixel (the test's own 16 x 16 grid of rays through OpenCV's undistortion), not its
+// centre value; with interior_samples = 1 the centres are what the renderer gives.
+TEST(Render, ANarrowHighlightIsIntegratedOverEachPixel) {
+  sim::SimConfig config = analytic_config();
+  config.camera.psf_sigma_px = 0.0;
+  auto brdf = std::make_shared<sim::test::TestLobeBrdf>(0.05, 0.5, 0.03);
+  const double angle = 30.0;
+  auto render = [&](int samples) {
+    sim::SimConfig c = config;
+    c.render.interior_samples = samples;
+    sim::SimWorld world(c);
+    world.set_paint({brdf, std::nullopt});
+    world.set_table_angle_deg(angle);
+    sim::RenderOptions opt;
+    opt.mono = false;
+    return world.render(opt);
+  };
+  const ImageF integrated = render(4), centres = render(1);
+  sim::SimWorld world(config);
+  int bx = 0, by = 0;
+  for (int y = 0; y < centres.height(); ++y)
+    for (int x = 0; x < centres.width(); ++x)
+      if (centres.at(x, y, 0) > centres.at(bx, by, 0)) bx = x, by = y;
+  const int n = 16;
+  int checked = 0, differ = 0;
+  for (int y = by - 3; y <= by + 3; ++y)
+    for (int x = bx - 3; x <= bx + 3; ++x) {
+      brdf::Rgb centre, sum = brdf::Rgb::Zero();
+      ASSERT_TRUE(predict_sphere(world, *brdf, angle, x, y, &centre));
+      EXPECT_THAT(centres.at(x, y, 0), test::NearRel(centre[0], 1e-4)) << x << "," << y;
+      for (int b = 0; b < n; ++b)
+        for (int a = 0; a < n; ++a) {
+          brdf::Rgb v;
+          ASSERT_TRUE(predict_sphere(world, *brdf, angle, x - 0.5 + (a + 0.5) / n, y - 0.5 + (b + 0.5) / n, &v));
+          sum += v;
+        }
+      const brdf::Rgb mean = sum / (n * n);
+      if (mean[0] < 0.05 * centres.at(bx, by, 0)) continue;
+      ++checked;
+      for (int k = 0; k < 3; ++k) EXPECT_THAT(integrated.at(x, y, k), test::NearRel(mean[k], 0.01)) << x << "," << y;
+      if (std::abs(centre[0] / mean[0] - 1.0) > 0.05) ++differ;
+    }
+  EXPECT_GE(checked, 9);
+  EXPECT_GE(differ, 4) << "the highlight is not narrow enough for the test to tell centres from means";
 }

@@ -104,6 +104,12 @@ struct SceneParams {
 struct RenderParams {
   int edge_samples = 16;               // coverage samples per edge pixel: edge_samples^2
   int edge_shading_samples = 4;        // shaded samples per edge pixel: n^2
+  // Interior sphere pixels are shaded at their centre, and integrated over the pixel on an
+  // n x n grid where the centre differs from the pixel's mean by more than the tolerance
+  // (relative, from the image's curvature). 1 (the default for now): centres only; 4 is what
+  // a camera does (docs/simulator.md: the pipeline does not yet undo the pixel's box).
+  int interior_samples = 1;
+  double interior_tolerance = 1e-3;
   double sparkle_floor = 0.1;          // epsilon of the sparkle factor (K + eps) / (lambda + eps)
 };
 

@@ -12,7 +12,9 @@
 // render serves a whole exposure bracket. Per pixel: the camera ray hits the sphere, n,
 // wi towards the LED (inverse-square distance, emission profile), wo towards the camera,
 // L = f(wi, wo) I(wi) cos(theta_i) / d^2. Silhouette pixels are supersampled (coverage
-// edge_samples^2, shading edge_shading_samples^2), so the edge is sub-pixel accurate.
+// edge_samples^2, shading edge_shading_samples^2), so the edge is sub-pixel accurate;
+// interior pixels whose centre value is not their mean (a highlight a few pixels across,
+// the terminator) are integrated over the pixel (interior_samples^2).
 // Flakes modulate the part of f they carry (flakes.h). Not simulated: interreflections,
 // the LED housing, shadows other than the sphere's, antialiasing of the arm's edges.
 #include <atomic>
