@@ -539,7 +539,13 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
     Rgb smooth = Rgb::Zero();
     Rgb flakes = Rgb::Zero();
   };
-  auto shade_parts = [&](const Vec3& q) -> Parts {
+  // The light and view directions in the shading frame at sphere point q and the
+  // irradiance there; false where the point is unlit or unseen.
+  struct Local {
+    Vec3 wi, wo;
+    Rgb e;
+  };
+  auto local_at = [&](const Vec3& q, Local* l) -> bool {
     Vec3 p = s.c + q;
     Vec3 n = q / s.r;
     Vec3 wo = (s.cam_centre - p).normalized();
@@ -547,16 +553,22 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
     double r2 = d.squaredNorm();
     Vec3 wi = d / std::sqrt(r2);
     double cos_i = n.dot(wi);
-    if (cos_i <= 0 || n.dot(wo) <= 0) return {};
+    if (cos_i <= 0 || n.dot(wo) <= 0) return false;
     double prof = light.profile(-wi.dot(light.axis));
-    if (prof <= 0) return {};
+    if (prof <= 0) return false;
     Mat3 frame = frame_from_normal(n);
-    Vec3 wi_l = frame.transpose() * wi, wo_l = frame.transpose() * wo;
-    const Rgb e = light.color * (light.i0 * prof * cos_i / r2);
-    if (!f_flakes) return {Rgb(f_paint.eval(wi_l, wo_l) * e), Rgb::Zero()};
-    const Rgb fl = f_flakes->eval(wi_l, wo_l);
-    const Rgb smooth = f_steady ? Rgb(f_steady->eval(wi_l, wo_l) + fl) : Rgb(f_paint.eval(wi_l, wo_l));
-    return {Rgb(smooth * e), Rgb(fl * e)};
+    l->wi = frame.transpose() * wi;
+    l->wo = frame.transpose() * wo;
+    l->e = light.color * (light.i0 * prof * cos_i / r2);
+    return true;
+  };
+  auto shade_parts = [&](const Vec3& q) -> Parts {
+    Local l;
+    if (!local_at(q, &l)) return {};
+    if (!f_flakes) return {Rgb(f_paint.eval(l.wi, l.wo) * l.e), Rgb::Zero()};
+    const Rgb fl = f_flakes->eval(l.wi, l.wo);
+    const Rgb smooth = f_steady ? Rgb(f_steady->eval(l.wi, l.wo) + fl) : Rgb(f_paint.eval(l.wi, l.wo));
+    return {Rgb(smooth * l.e), Rgb(fl * l.e)};
   };
   // The sparkle factor (K + eps) / (lambda + eps) of interior pixel j: K of its flakes lit
   // for the half vector at sphere point q, lambda the count expected there.
@@ -574,7 +586,13 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
     }
     return (k + st.floor) / (lambda + st.floor);
   };
-  auto shade_sphere = [&](const Vec3& q) -> Rgb { return shade_parts(q).smooth; };
+  // The whole BRDF (the flakes at their average), for the silhouette's samples: one
+  // evaluation where shade_parts needs two under sparkle.
+  auto shade_sphere = [&](const Vec3& q) -> Rgb {
+    Local l;
+    if (!local_at(q, &l)) return Rgb::Zero();
+    return Rgb(f_paint.eval(l.wi, l.wo) * l.e);
+  };
 
   // Felt (single precision: it only needs to be right to ~1e-6 relative).
   const Vec3f led_f = light.pos.cast<float>(), axis_f = light.axis.cast<float>(), c_f = s.c.cast<float>();
