@@ -20,6 +20,8 @@ namespace {
 
 constexpr EnumNames<DemosaicMethod, 2> kDemosaicNames{
     {{DemosaicMethod::Bilinear, "bilinear"}, {DemosaicMethod::EdgeAware, "edge-aware"}}};
+constexpr EnumNames<MosaicInterpolation, 2> kInterpolationNames{
+    {{MosaicInterpolation::Bilinear, "bilinear"}, {MosaicInterpolation::GradientCorrected, "gradient-corrected"}}};
 
 // The OpenCV conversion to RGB for a GenICam arrangement (see the header for the naming).
 int opencv_code(dev::CfaPattern p, DemosaicMethod m) {
@@ -40,6 +42,12 @@ const char* to_string(DemosaicMethod m) { return enum_name(kDemosaicNames, m); }
 
 DemosaicMethod demosaic_method_from_string(const std::string& s, const std::string& where) {
   return enum_from_name(kDemosaicNames, s, "demosaicing method", where);
+}
+
+const char* to_string(MosaicInterpolation m) { return enum_name(kInterpolationNames, m); }
+
+MosaicInterpolation mosaic_interpolation_from_string(const std::string& s, const std::string& where) {
+  return enum_from_name(kInterpolationNames, s, "demosaicing", where);
 }
 
 Image<std::uint16_t> demosaic(const Image<std::uint16_t>& mosaic, dev::CfaPattern pattern, DemosaicMethod method) {
@@ -220,6 +228,106 @@ constexpr std::array<RowFn, 4> kRowsOf = {interior_row<A, 0>, interior_row<A, 1>
                                           interior_row<A, 3>};
 constexpr std::array<std::array<RowFn, 4>, 4> kRows = {kRowsOf<0>, kRowsOf<1>, kRowsOf<2>, kRowsOf<3>};
 
+
+// ---- gradient-corrected (Malvar, He and Cutler 2004) ----
+
+// One tap of a 5x5 kernel: offset and weight (the paper's weights, already divided by 8).
+struct Tap {
+  int dx, dy;
+  float w;
+};
+struct Taps {
+  Tap t[13];
+  int n = 0;
+};
+
+// The paper's four kernels, for a missing colour at a site: green at a red or blue site; red
+// at a blue site (or blue at a red one: the diagonal neighbours); the colour of a green site's
+// left and right neighbours; the colour of its upper and lower neighbours.
+constexpr int kGreenAtRb = 0, kDiagonal = 1, kAcrossRow = 2, kAcrossColumn = 3;
+Taps mhc_kernel(int which) {
+  Taps k;
+  auto add = [&k](int dx, int dy, double w8) { k.t[k.n++] = {dx, dy, static_cast<float>(w8 / 8.0)}; };
+  switch (which) {
+    case kGreenAtRb:
+      add(0, 0, 4);
+      for (int s : {-1, 1}) add(s, 0, 2), add(0, s, 2), add(2 * s, 0, -1), add(0, 2 * s, -1);
+      break;
+    case kDiagonal:
+      add(0, 0, 6);
+      for (int s : {-1, 1}) add(s, -1, 2), add(s, 1, 2), add(2 * s, 0, -1.5), add(0, 2 * s, -1.5);
+      break;
+    case kAcrossRow:
+      add(0, 0, 5);
+      for (int s : {-1, 1}) add(s, 0, 4), add(2 * s, 0, -1), add(s, -1, -1), add(s, 1, -1), add(0, 2 * s, 0.5);
+      break;
+    default:  // kAcrossColumn: the transpose
+      add(0, 0, 5);
+      for (int s : {-1, 1}) add(0, s, 4), add(0, 2 * s, -1), add(-1, s, -1), add(1, s, -1), add(2 * s, 0, 0.5);
+      break;
+  }
+  return k;
+}
+
+// For each kind of site (SiteKind) and output colour c: the kernel, or -1 for the site's own
+// colour (its value as it is).
+constexpr int kOwn = -1;
+constexpr int kMhcKernelOf[4][3] = {
+    {kOwn, kGreenAtRb, kDiagonal},          // red site
+    {kDiagonal, kGreenAtRb, kOwn},          // blue site
+    {kAcrossRow, kOwn, kAcrossColumn},      // green between reds
+    {kAcrossColumn, kOwn, kAcrossRow},      // green between blues
+};
+
+// What the gradient-corrected path needs: the mosaic, the balance per colour, the matrix
+// (balance not folded in) and the colour of each site.
+struct MhcInput {
+  const float* value;
+  const float* variance;
+  const float* valid;
+  std::size_t W;
+  int colour[2][2];
+  float balance[3];
+  float m[9];
+  std::array<Taps, 4> kernels;
+};
+
+// Camera RGB (balanced) at interior pixel (x, y) (2 <= x < w - 2, likewise y) with, per
+// output r of the matrix, the coefficient of each of the 5x5 sites (row-major, centre 12) in
+// it, for the variance.
+struct MhcPixel {
+  float v[3];
+  bool ok[3];
+  float coef[3][25];  // per camera channel c: weight of site s in balanced value c
+};
+void mhc_pixel(const MhcInput& in, int x, int y, int kind, MhcPixel* p) {
+  const std::size_t centre = static_cast<std::size_t>(y) * in.W + static_cast<std::size_t>(x);
+  for (int c = 0; c < 3; ++c) {
+    std::fill(std::begin(p->coef[c]), std::end(p->coef[c]), 0.0f);
+    const int which = kMhcKernelOf[kind][c];
+    if (which == kOwn) {
+      const float b = in.balance[c];
+      p->v[c] = b * in.value[centre];
+      p->ok[c] = in.valid[centre] > 0.5f;
+      p->coef[c][12] = b;
+      continue;
+    }
+    const Taps& k = in.kernels[static_cast<std::size_t>(which)];
+    float sum = 0.0f;
+    bool ok = true;
+    for (int t = 0; t < k.n; ++t) {
+      const int sx = x + k.t[t].dx, sy = y + k.t[t].dy;
+      const std::size_t i = static_cast<std::size_t>(sy) * in.W + static_cast<std::size_t>(sx);
+      const float wb = k.t[t].w * in.balance[in.colour[sy & 1][sx & 1]];
+      sum += wb * in.value[i];
+      ok = ok && in.valid[i] > 0.5f;
+      p->coef[c][(k.t[t].dy + 2) * 5 + (k.t[t].dx + 2)] = wb;
+    }
+    p->v[c] = sum;
+    p->ok[c] = ok;
+  }
+}
+
 }  // namespace
 
 ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map) {
@@ -245,6 +353,7 @@ ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map) {
   out.attributes = mosaic.attributes;
   out.attributes["paintlab.colour_space"] = map.colour_space;
   out.attributes["paintlab.cfa"] = dev::to_string(map.pattern);
+  out.attributes["paintlab.demosaic"] = to_string(map.interpolation);
   std::vector<ImageF> planes(7);
   tbb::parallel_for(0, 7, [&](int k) { planes[static_cast<std::size_t>(k)] = ImageF(w, h, 1); });
   float* o_v[3] = {planes[0].data(), planes[1].data(), planes[2].data()};
@@ -299,10 +408,71 @@ ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map) {
   };
   const RowFn rows_of[2] = {kRows[static_cast<std::size_t>(kind(0, 0))][static_cast<std::size_t>(kind(1, 0))],
                             kRows[static_cast<std::size_t>(kind(0, 1))][static_cast<std::size_t>(kind(1, 1))]};
+  const bool mhc = map.interpolation == MosaicInterpolation::GradientCorrected;
+  MhcInput mi{value, variance, valid, W, {}, {}, {}, {}};
+  if (mhc) {
+    for (int py = 0; py < 2; ++py)
+      for (int px = 0; px < 2; ++px) mi.colour[py][px] = colour[py][px];
+    for (int c = 0; c < 3; ++c) mi.balance[c] = static_cast<float>(map.balance[static_cast<std::size_t>(c)]);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        mi.m[3 * i + j] = map.matrix ? static_cast<float>((*map.matrix)[static_cast<std::size_t>(3 * i + j)])
+                                     : (i == j ? 1.0f : 0.0f);
+    for (int k = 0; k < 4; ++k) mi.kernels[static_cast<std::size_t>(k)] = mhc_kernel(k);
+  }
+  // One interior pixel, gradient-corrected: the matrix's outputs with their exact variance
+  // (each site's coefficient in an output summed over the channels it enters).
+  auto store_mhc = [&](int x, int y) {
+    MhcPixel p;
+    mhc_pixel(mi, x, y, kind(x, y), &p);
+    const std::size_t i = static_cast<std::size_t>(y) * W + static_cast<std::size_t>(x);
+    auto site_var = [&](int s) {
+      return variance[static_cast<std::size_t>(y + s / 5 - 2) * W + static_cast<std::size_t>(x + s % 5 - 2)];
+    };
+    o_ok[i] = (p.ok[0] && p.ok[1] && p.ok[2]) ? 1.0f : 0.0f;
+    if (linear) {
+      for (int r = 0; r < 3; ++r) {
+        const float* mr = mi.m + 3 * r;
+        o_v[r][i] = mr[0] * p.v[0] + mr[1] * p.v[1] + mr[2] * p.v[2];
+        const bool bad = (!p.ok[0] && mr[0] != 0.0f) || (!p.ok[1] && mr[1] != 0.0f) || (!p.ok[2] && mr[2] != 0.0f);
+        double var_r = 0.0;
+        if (!bad)
+          for (int s = 0; s < 25; ++s) {
+            const double a = mr[0] * p.coef[0][s] + mr[1] * p.coef[1][s] + mr[2] * p.coef[2][s];
+            if (a != 0.0) var_r += a * a * site_var(s);
+          }
+        o_var[r][i] = bad ? inf : static_cast<float>(var_r);
+      }
+      return;
+    }
+    std::array<double, 3> cam{}, var{};
+    for (int c = 0; c < 3; ++c) {
+      const double b = mi.balance[c];
+      double q = 0.0;
+      for (int s = 0; s < 25; ++s)
+        if (p.coef[c][s] != 0.0f) q += static_cast<double>(p.coef[c][s]) * p.coef[c][s] * site_var(s);
+      cam[static_cast<std::size_t>(c)] = p.v[c] / b;
+      var[static_cast<std::size_t>(c)] = q / (b * b);
+    }
+    const Mapped mp = map_pixel(map, cam, var, p.ok);
+    for (int r = 0; r < 3; ++r) {
+      o_v[r][i] = mp.value[static_cast<std::size_t>(r)];
+      o_var[r][i] = mp.var[static_cast<std::size_t>(r)];
+    }
+  };
   tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
       const std::size_t row = static_cast<std::size_t>(y) * W;
-      if (y == 0 || y == h - 1) {
+      if (mhc && y >= 2 && y < h - 2 && w >= 5) {
+        for (int x = 0; x < w; ++x) {
+          if (x >= 2 && x < w - 2)
+            store_mhc(x, y);
+          else
+            store(row + static_cast<std::size_t>(x), demosaic_at_border(value, variance, valid, w, h, x, y, colour));
+        }
+        continue;
+      }
+      if (mhc || y == 0 || y == h - 1) {
         for (int x = 0; x < w; ++x)
           store(row + static_cast<std::size_t>(x), demosaic_at_border(value, variance, valid, w, h, x, y, colour));
         continue;

@@ -141,7 +141,9 @@ SessionManifest make_manifest(const RigConfig& rig, const MeasureSetup& setup, c
   m.options.pixel_format = dev::to_string(camera.format);
   if (dev::cfa_pattern(camera.format) != dev::CfaPattern::None || rig.filter_wheel) {
     m.options.colour_space = in.options.colour_space.empty() ? colour::kCameraRgb : in.options.colour_space;
-    m.options.demosaic = rig.filter_wheel ? "none (filter wheel)" : to_string(DemosaicMethod::Bilinear);
+    m.options.demosaic = rig.filter_wheel            ? "none (filter wheel)"
+                         : in.options.demosaic.empty() ? to_string(MosaicInterpolation::Bilinear)
+                                                       : in.options.demosaic;
   }
   return m;
 }
@@ -212,7 +214,6 @@ MergeFn BracketMerger::function() {
     r.image.attributes["paintlab.saturated_pixels"] = std::to_string(r.stats.saturated);
     if (colour_.pattern == dev::CfaPattern::None) return std::move(r.image);
     ExrImage rgb = demosaic_to_colour(r.image, colour_);
-    rgb.attributes["paintlab.demosaic"] = to_string(DemosaicMethod::Bilinear);
     auto mosaic = std::make_shared<ExrImage>();
     mosaic->width = r.image.width;
     mosaic->height = r.image.height;

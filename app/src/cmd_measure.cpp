@@ -52,6 +52,7 @@ struct MeasureArgs {
   bool keep_raw = false;
   bool adaptive = false;
   bool uncalibrated = false;
+  std::string demosaic;
   int max_retries = 3;
 };
 
@@ -107,6 +108,18 @@ int run_measure(const MeasureArgs& a) {
   acq::CameraPreparation cam = acq::prepare_camera(*devices.camera, rig);
   if (resume) acq::check_resume_camera(session->manifest(), cam, a.resume);
   acq::ColourMap colour = acq::prepare_colour(rig, cam.format, uncalibrated);
+  const bool bayer = dev::cfa_pattern(cam.format) != dev::CfaPattern::None && !rig.filter_wheel;
+  if (!a.demosaic.empty() && !bayer)
+    throw UsageError(fmt::format("--demosaic applies to a colour-filter-array camera; this rig's camera records {}{}",
+                                 dev::to_string(cam.format), rig.filter_wheel ? " behind a filter wheel" : ""));
+  if (resume && !a.demosaic.empty())
+    throw UsageError("--demosaic cannot change a session's demosaicing: --resume keeps the session's");
+  if (bayer) {
+    const std::string method = resume ? session->manifest().options.demosaic : a.demosaic;
+    if (!method.empty())
+      colour.interpolation = acq::mosaic_interpolation_from_string(
+          method, resume ? a.resume + "/session.json: key 'options.demosaic'" : std::string("--demosaic"));
+  }
 
   if (!resume) {
     acq::ManifestInput in;
@@ -120,6 +133,7 @@ int run_measure(const MeasureArgs& a) {
     in.options.adaptive = adaptive;
     in.options.uncalibrated = uncalibrated;
     in.options.colour_space = colour.colour_space;
+    if (bayer) in.options.demosaic = acq::to_string(colour.interpolation);
     if (devices.sim) in.options.sim_paint = sim_paint_json;
     acq::SessionManifest m = acq::make_manifest(rig, setup, cam, in);
     session.emplace(acq::SessionDir::create(a.out, std::move(m)));
@@ -166,6 +180,10 @@ void register_measure_commands(CLI::App& app) {
               "(needs calib/camera.json and sphere.json)");
   m->add_flag("--uncalibrated", a->uncalibrated,
               "merge without calib/response.json and dark.json (a linear camera is assumed; not for real measurements)");
+  m->add_option("--demosaic", a->demosaic,
+                "a Bayer camera's demosaicing: bilinear (default) or gradient-corrected (Malvar-He-Cutler: keeps\n"
+                "highlights of a few pixels narrower; docs/colour.md)")
+      ->check(CLI::IsMember({"bilinear", "gradient-corrected"}));
   m->add_option("--sim-paint", a->sim_paint, "simulated rig only: paint .toml on the simulated sphere (default: the built-in silver metallic)");
   m->add_option("--max-retries", a->max_retries, "retries of a failed device operation before stopping safely")
       ->check(CLI::Range(0, 20));

@@ -267,8 +267,14 @@ TEST_F(MeasureCli, AFilterWheelMeasuresOneBracketPerFilter) {
     ASSERT_EQ(c.exit_code, 0) << c.out << c.err;
   }
   const fs::path out = dir_ / "session";
-  auto r = test::run_paintlab("measure --uncalibrated --rig " + rig_.string() + " --sample blue --out " + out.string() +
-                              " --sim-paint " + (test::source_dir() / "paints/solid-blue.toml").string());
+  // Nothing to demosaic behind a wheel: --demosaic is refused, naming itself, before anything is written.
+  auto r = test::run_paintlab("measure --uncalibrated --demosaic gradient-corrected --rig " + rig_.string() +
+                              " --sample blue --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_THAT(r.err, HasSubstr("--demosaic applies to a colour-filter-array camera"));
+  EXPECT_FALSE(fs::exists(out / "session.json"));
+  r = test::run_paintlab("measure --uncalibrated --rig " + rig_.string() + " --sample blue --out " + out.string() +
+                         " --sim-paint " + (test::source_dir() / "paints/solid-blue.toml").string());
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_THAT(r.out, HasSubstr("filter wheel"));
   expect_complete_session(out, kPositions);

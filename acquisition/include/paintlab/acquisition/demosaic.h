@@ -27,6 +27,22 @@ const char* to_string(DemosaicMethod m);  // "bilinear", "edge-aware"
 // DataError naming `where` and the methods for another name.
 DemosaicMethod demosaic_method_from_string(const std::string& s, const std::string& where);
 
+// How demosaic_to_colour fills in the two colours a site of a merged mosaic does not see.
+enum class MosaicInterpolation {
+  // The mean of the nearest sites of that colour (two or four; cv::demosaicing's bilinear
+  // kernel). Spreads a highlight of a few pixels over its 3x3 neighbourhood in those colours.
+  Bilinear,
+  // Malvar, He and Cutler (ICASSP 2004, "High-quality linear interpolation for demosaicing of
+  // Bayer-patterned color images"): the bilinear estimate corrected by the Laplacian of the
+  // site's own colour over a 5x5 neighbourhood (their kernels, gains 1/2, 5/8, 3/4), on the
+  // white-balanced mosaic so that a grey highlight is grey in every colour. Linear, so the
+  // variance follows exactly; the two pixels next to the border stay bilinear.
+  GradientCorrected,
+};
+const char* to_string(MosaicInterpolation m);  // "bilinear", "gradient-corrected"
+// DataError naming `where` and the methods for another name.
+MosaicInterpolation mosaic_interpolation_from_string(const std::string& s, const std::string& where);
+
 // The RGB image (3 channels R, G, B; the mosaic's size and value range) of a one-plane
 // mosaic of `pattern`. DataError for a mosaic that is not one plane, smaller than 2x2, or
 // pattern None.
@@ -56,12 +72,16 @@ struct ColourMap {
   std::optional<std::array<double, 9>> matrix{};  // row-major
   std::function<std::array<double, 3>(const std::array<double, 3>&)> nonlinear{};
   std::string colour_space = colour::kCameraRgb;  // what the output values are
+  MosaicInterpolation interpolation = MosaicInterpolation::Bilinear;  // demosaic_to_colour's
   std::array<double, 3> apply(const std::array<double, 3>& camera) const;
 };
 
 // demosaic_merged and the colour map in one pass over the image (rows in parallel): the
 // merged mosaic of a Bayer bracket to the R, G, B (with var.* and valid) a session stores,
-// attribute paintlab.colour_space set.
+// attributes paintlab.colour_space and paintlab.demosaic set. map.interpolation chooses the
+// demosaicing. Gradient-corrected: a value is valid where every site its kernels read is; the
+// variance through a matrix map is exact (the three channels of a pixel share sites, so their
+// covariances enter); through a root-polynomial map the channels are taken as independent.
 ExrImage demosaic_to_colour(const ExrImage& mosaic, const ColourMap& map);
 
 // The colour map alone, for a camera that samples every channel at every pixel (a monochrome
