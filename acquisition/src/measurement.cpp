@@ -100,12 +100,10 @@ ColourMap prepare_colour(const RigConfig& rig, dev::PixelFormat format, bool unc
     throw DataError(fmt::format("{}: no per-channel scale (scale_rgb): it was calibrated with a monochrome camera; run "
                                 "`paintlab calibrate scale --rig {}` again with the colour camera",
                                 scale_file.string(), rig.file.string()));
-  for (int c = 0; c < 3; ++c) map.balance[static_cast<std::size_t>(c)] = scale.scale / (*scale.scale_rgb)[static_cast<std::size_t>(c)];
+  map.balance = *scale.white_balance();
   auto colour = std::make_shared<const calib::ColourCalibration>(calib::ColourCalibration::load(colour_file));
-  if (colour->model == calib::ColourModel::Matrix) {
-    // M_bal = M diag(camera_white), then XYZ -> linear sRGB.
-    const Eigen::Matrix3d m = colour::xyz_to_srgb_matrix() * colour->matrix.leftCols<3>() *
-                              colour->camera_white.asDiagonal();
+  if (const std::optional<Eigen::Matrix3d> balanced = colour->balanced_srgb_matrix()) {
+    const Eigen::Matrix3d& m = *balanced;
     std::array<double, 9> rows{};
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) rows[static_cast<std::size_t>(3 * i + j)] = m(i, j);

@@ -106,6 +106,7 @@ void register_export_commands(CLI::App& app) {
   exp->add_option("--fit-out", args->fit_out, "Session only, with --axf: also write the fit as fit.json");
   exp->add_option("--seed", args->seed, "Seed of the fit's random starts")->capture_default_str();
   add_extract_options(exp, args->extract, true);
+  add_cfa_sites_option(exp, args->extract);
 
   CLI::App* axf = subcommand_group(app, "axf", "AxF-like paint files (HDF5): check and inspect");
   auto [validate, files] = add_command<std::vector<std::string>>(

@@ -73,14 +73,25 @@ int run_fit(const FitArgs& a) {
   const fs::path input(a.input);
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
   fit::OutputGuard().input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out}).check();
-  const fit::FitInput in = fit::load_fit_input(input, bin_options(a.extract));
-  if (in.stats) say(in.stats->describe(in.table.count_in_state(brdf::BinState::Measured)));
+  fit::SessionBinOptions bin = bin_options(a.extract);
+  if (bin.sites == fit::SiteFit::On && !fs::is_directory(input))
+    throw DataError(fmt::format("--cfa-sites on: {} is a table; only a session's images show which pixel measured "
+                                "which colour",
+                                a.input));
+  if (req.model != fit::FitModel::CookTorrance) {
+    if (bin.sites == fit::SiteFit::On)
+      throw DataError(fmt::format("--cfa-sites on fits the cook-torrance model, not --model {}", a.model));
+    bin.sites = fit::SiteFit::Off;
+  }
+  const fit::FitInput in = fit::load_fit_input(input, bin);
+  if (in.stats) say(in.stats->describe(in.measured_bins()));
   for (const std::string& w : in.warnings) spdlog::warn("{}", w);
   req.name = fit::paint_name_from(a.name.empty() ? in.sample : a.name);
-  spdlog::info("fitting {} ({} measured bins)", fit::to_string(req.model),
-               in.table.count_in_state(brdf::BinState::Measured));
+  spdlog::info("fitting {} ({} measured bins{})", fit::to_string(req.model), in.measured_bins(),
+               in.sites ? ", R, G and B sites in tables of their own" : "");
   const fit::FitOutcome outcome =
-      fit::fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance, req, in.input);
+      in.sites ? fit::fit_sites(*in.sites, req, in.input)
+               : fit::fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance, req, in.input);
   write_json_file(a.out, outcome.fit);
   say(outcome.report);
   if (!outcome.converged) {
@@ -167,6 +178,7 @@ void register_fit_commands(CLI::App& app) {
                   "sample spread: unbiased for bin means under flake sparkle; see docs/fitting.md)")
       ->capture_default_str();
   add_extract_options(fit, args->extract, true);
+  add_cfa_sites_option(fit, args->extract);
 
   auto [bin, bargs] = add_command<BinArgs>(&app, "bin", kBinHelp, run_bin);
   bin->add_option("SESSION", bargs->session, "Session folder")->required();

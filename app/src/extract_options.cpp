@@ -48,6 +48,18 @@ void add_extract_options(CLI::App* sub, ExtractArgs& a, bool fits) {
   sub->add_option("--estimator", a.estimator, "Per-bin estimator: mean or median-of-means")->capture_default_str();
 }
 
+void add_cfa_sites_option(CLI::App* sub, ExtractArgs& a) {
+  a.cfa_sites = "auto";
+  sub->add_option("--cfa-sites", a.cfa_sites,
+                  "Bayer cameras: fit every colour at the pixels whose filter measured it (camera RGB, then kd and ks "
+                  "mapped to the session's colour space), so no demosaiced value reaches the fit and a highlight a "
+                  "few pixels across keeps its width. auto: whenever the session allows it (a Bayer camera, the 3x3 "
+                  "matrix colour calibration, cook-torrance, neither --blur-px nor --variance local); on: or fail "
+                  "saying why; off: fit the demosaiced image (docs/fitting.md \"Fitting a Bayer camera at its sites\")")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
+}
+
 // The extraction and binning options the flags give (checked by fit::bin_session).
 fit::SessionBinOptions bin_options(const ExtractArgs& a) {
   fit::SessionBinOptions o;
@@ -57,6 +69,7 @@ fit::SessionBinOptions bin_options(const ExtractArgs& a) {
   o.extraction.max_blur_correction = a.max_blur_correction;
   o.extraction.skip_too_sharp = a.too_sharp == "skip";
   o.extraction.variance = fit::variance_model_from_string(a.variance, "--variance");
+  o.sites = fit::site_fit_from_string(a.cfa_sites, "--cfa-sites");
   o.extraction.threads = a.threads;
   o.binning.estimator = fit::bin_estimator_from_string(a.estimator, "--estimator");
   o.binning.threads = a.threads;

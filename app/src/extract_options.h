@@ -17,11 +17,15 @@ struct ExtractArgs {
   std::string too_sharp = "keep";
   std::string variance = fit::to_string(fit::ExtractionOptions{}.variance);
   std::string estimator = fit::to_string(fit::BinningOptions{}.estimator);
+  std::string cfa_sites = "off";  // --cfa-sites of the commands that fit (add_cfa_sites_option: auto)
   int threads = 0;
 };
 // Adds --calib, --margin-px, --blur-px, --valid-margin-px, --variance, --estimator and --threads (`fits`: the command fits
 // too, and its threads are the fit's as well).
 void add_extract_options(CLI::App* sub, ExtractArgs& a, bool fits);
+// Adds --cfa-sites auto|on|off, default auto (the commands that fit a session: a fit, not a
+// table, comes of the sites).
+void add_cfa_sites_option(CLI::App* sub, ExtractArgs& a);
 // The options the flags give (fit::bin_session checks them); DataError naming the flag.
 fit::SessionBinOptions bin_options(const ExtractArgs& a);
 

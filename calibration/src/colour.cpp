@@ -182,6 +182,11 @@ colour::Xyz ColourCalibration::to_xyz(const colour::Rgb& camera) const {
   return matrix * colour_terms(model, camera);
 }
 
+std::optional<Eigen::Matrix3d> ColourCalibration::balanced_srgb_matrix() const {
+  if (model != ColourModel::Matrix) return std::nullopt;
+  return Eigen::Matrix3d(colour::xyz_to_srgb_matrix() * matrix.leftCols<3>() * camera_white.asDiagonal());
+}
+
 namespace {
 
 // dE00 between the model applied to a patch's terms and the patch's reference (D65).

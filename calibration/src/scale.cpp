@@ -150,6 +150,13 @@ ScaleCalibration calibrate_scale(const std::vector<ReferenceImage>& images, cons
   return cal;
 }
 
+std::optional<std::array<double, 3>> ScaleCalibration::white_balance() const {
+  if (!scale_rgb) return std::nullopt;
+  std::array<double, 3> b{};
+  for (std::size_t c = 0; c < 3; ++c) b[c] = scale / (*scale_rgb)[c];
+  return b;
+}
+
 Json ScaleCalibration::to_json() const {
   Json im = Json::array();
   for (const auto& r : images)

@@ -435,6 +435,26 @@ Json CookTorranceFit::to_json(const std::string& name) const {
   return j;
 }
 
+CookTorranceFit transform_colours(const CookTorranceFit& fit, const Eigen::Matrix3d& to, int* clipped) {
+  CookTorranceFit out = fit;
+  const Eigen::Matrix3d to2 = to.cwiseProduct(to);
+  int n = 0;
+  auto map = [&](const brdf::Rgb& v, const brdf::Rgb& sd, brdf::Rgb& v_out, brdf::Rgb& sd_out) {
+    v_out = (to * v.matrix()).array();
+    sd_out = (to2 * (sd * sd).matrix()).array().sqrt();
+    for (int c = 0; c < 3; ++c)
+      if (v_out[c] < 0.0) {
+        v_out[c] = 0.0;
+        ++n;
+      }
+  };
+  map(fit.params.kd, fit.stddev.kd, out.params.kd, out.stddev.kd);
+  for (std::size_t l = 0; l < fit.params.lobes.size(); ++l)
+    map(fit.params.lobes[l].ks, fit.stddev.lobes[l].ks, out.params.lobes[l].ks, out.stddev.lobes[l].ks);
+  if (clipped) *clipped = n;
+  return out;
+}
+
 std::vector<double> evaluate_cook_torrance(const FitData& data, const brdf::CookTorranceParams& p) {
   return evaluate_bins(data, p.kd * std::numbers::inv_pi, [&](const FitMember& m) {
     brdf::Rgb f = brdf::Rgb::Zero();

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "paintlab/brdf/paint.h"
 #include "paintlab/core/atomic_file.h"
@@ -78,8 +79,24 @@ void export_session(const ExportRequest& r, ExportResult& result) {
   const acq::SessionDir session = acq::SessionDir::open(dir);
 
   auto t0 = std::chrono::steady_clock::now();
-  BinnedSession s = bin_session(session, with_threads(r.bin, r.threads));
-  BinnedTable& binned = s.binned;
+  // The Cook-Torrance fit may be made at the filter-array sites (r.bin.sites); the MERL table
+  // and the car-paint model's fit take the demosaiced image, binned separately when needed.
+  const bool any_other_model =
+      std::any_of(models.begin(), models.end(), [](FitModel m) { return m != FitModel::CookTorrance; });
+  SessionBinOptions site_options = with_threads(r.bin, r.threads);
+  if (!r.axf) site_options.sites = SiteFit::Off;
+  BinnedSession s = bin_session(session, site_options);
+  std::optional<BinnedSession> demosaiced;
+  auto demosaiced_table = [&]() -> BinnedTable& {
+    if (!s.sites) return s.binned;
+    if (!demosaiced) {
+      SessionBinOptions o = site_options;
+      o.sites = SiteFit::Off;
+      demosaiced = bin_session(session, o);
+    }
+    return demosaiced->binned;
+  };
+  if (any_other_model || r.merl) demosaiced_table();
   result.bin_s = seconds_since(t0);
 
   if (r.axf) {
@@ -92,8 +109,14 @@ void export_session(const ExportRequest& r, ExportResult& result) {
       FitRequest req = FitRequest::with(m, r.name.empty() ? paint_name_from(session.manifest().sample) : r.name, shared);
       req.check();
       spdlog::info("fitting {}", to_string(m));
-      FitOutcome out =
-          fit_table(binned.table, binned.noise_variance.empty() ? nullptr : &binned.noise_variance, req, s.input);
+      FitOutcome out;
+      if (s.sites && m == FitModel::CookTorrance) {
+        out = fit_sites(*s.sites, req, s.input);
+      } else {
+        const BinnedTable& binned = demosaiced_table();
+        out = fit_table(binned.table, binned.noise_variance.empty() ? nullptr : &binned.noise_variance, req,
+                        demosaiced ? demosaiced->input : s.input);
+      }
       if (!out.converged) {
         // Exported all the same (the AxF-like file and --fit-out record it); the command exits 1.
         result.converged = false;
@@ -117,7 +140,7 @@ void export_session(const ExportRequest& r, ExportResult& result) {
   }
   if (r.merl) {
     t0 = std::chrono::steady_clock::now();
-    result.lines.push_back(write_filled_merl(std::move(binned.table), *r.merl));
+    result.lines.push_back(write_filled_merl(std::move(demosaiced_table().table), *r.merl));
     result.write_s += seconds_since(t0);
   }
 }
@@ -157,7 +180,8 @@ void export_paint_files(const ExportRequest& r, ExportResult& result) {
       merl_table = brdf::read_merl(path);
     } else if (kind == "session" && acq::is_session_dir(path)) {
       // Binned as the fit's table was: the margin, variance and estimator its input records.
-      const SessionBinOptions o = bin_options_of_input(*fit_input, with_threads(r.bin, r.threads), "fit.json");
+      SessionBinOptions o = bin_options_of_input(*fit_input, with_threads(r.bin, r.threads), "fit.json");
+      o.sites = SiteFit::Off;  // a MERL table is the demosaiced image's, whatever the fit was made at
       merl_table = bin_session(acq::SessionDir::open(path), o).binned.table;
       result.bin_s = seconds_since(t0);
     } else {

@@ -13,6 +13,7 @@
 #include "paintlab/brdf/rusinkiewicz.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/sphere.h"
+#include "paintlab/core/colour.h"
 #include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
@@ -34,7 +35,38 @@ void ExtractionOptions::check() const {
   if (!(blur_sigma_px <= 10.0)) fail("blur_sigma_px", blur_sigma_px, "<= 10 (< 0: the calibration's)");
   if (!(max_blur_correction > 0.0 && max_blur_correction <= 1.0))
     fail("max_blur_correction", max_blur_correction, "in (0, 1]");
+  // Both compare a pixel with its four neighbours, which at a filter-array site are the
+  // other colours (interpolated values, the very thing cfa_sites keeps out of the fit).
+  if (cfa_sites && blur_sigma_px != 0.0)
+    throw OptionError("ExtractionOptions::cfa_sites", "true",
+                      "not with the lens-blur correction (blur_sigma_px != 0): a site's neighbours are other colours");
+  if (cfa_sites && variance == VarianceModel::Local)
+    throw OptionError("ExtractionOptions::cfa_sites", "true",
+                      "not with the local variance model: a site's neighbours are other colours");
 }
+
+namespace {
+
+// The colour (0 R, 1 G, 2 B) of each site of the top-left 2x2 block, row by row, of a
+// GenICam Bayer arrangement as paintlab.cfa names it ("RG": R G / G B); empty otherwise.
+std::optional<std::array<int, 4>> cfa_block(const std::string& name) {
+  if (name == "RG") return std::array<int, 4>{0, 1, 1, 2};
+  if (name == "GR") return std::array<int, 4>{1, 0, 2, 1};
+  if (name == "GB") return std::array<int, 4>{1, 2, 0, 1};
+  if (name == "BG") return std::array<int, 4>{2, 1, 1, 0};
+  return std::nullopt;
+}
+
+// The camera RGB of a site table from the stored colour (value) and its variance: v = A s
+// with A = site_to_srgb; for the variance the demosaiced channels of a pixel are taken as
+// independent (exact for bilinear demosaicing: they come from different sites), so
+// var(s) = (A o A)^-1 var(v) (o: element-wise product).
+struct SiteInverse {
+  Eigen::Matrix3d value = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d variance = Eigen::Matrix3d::Identity();
+};
+
+}  // namespace
 
 constexpr EnumNames<VarianceModel, 2> kVarianceNames{{{VarianceModel::Hdr, "hdr"}, {VarianceModel::Local, "local"}}};
 
@@ -84,6 +116,12 @@ SphereSampler::SphereSampler(const calib::RigCalibration& calibration, const Ext
   width_ = camera.width_px;
   height_ = camera.height_px;
   blur_sigma_px_ = blur_sigma_to_correct(options_, calibration);
+  if (options_.cfa_sites && calibration.colour()) {
+    // What measure stored: linear sRGB = M_bal (balance .* camera) (acq::prepare_colour).
+    const std::optional<Eigen::Matrix3d> m = calibration.colour()->balanced_srgb_matrix();
+    const std::optional<std::array<double, 3>> balance = calibration.scale()->white_balance();
+    if (m && balance) site_to_srgb_ = *m * Eigen::Vector3d((*balance)[0], (*balance)[1], (*balance)[2]).asDiagonal();
+  }
   const calib::SphereFit& sphere = *calibration.sphere();
   const Mat3 rig_from_cam = calibration.cam_from_rig().inverse().matrix();
 
@@ -124,6 +162,21 @@ SphereSampler::SphereSampler(const calib::RigCalibration& calibration, const Ext
 
 ExtractionStats SphereSampler::extract(const ExrImage& hdr, double table_angle_deg, SampleBatch& out,
                                        const std::string& source) const {
+  if (options_.cfa_sites)
+    throw DataError(fmt::format("{}: extraction at the filter-array sites fills one table per colour "
+                                "(extract_sites)", source));
+  return extract_into(hdr, table_angle_deg, &out, nullptr, source);
+}
+
+ExtractionStats SphereSampler::extract_sites(const ExrImage& hdr, double table_angle_deg,
+                                             std::array<SampleBatch, 3>& out, const std::string& source) const {
+  if (!options_.cfa_sites)
+    throw DataError(fmt::format("{}: extraction at the filter-array sites needs ExtractionOptions::cfa_sites", source));
+  return extract_into(hdr, table_angle_deg, nullptr, &out, source);
+}
+
+ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_angle_deg, SampleBatch* out_one,
+                                            std::array<SampleBatch, 3>* sites, const std::string& source) const {
   if (hdr.width != width_ || hdr.height != height_)
     throw DataError(fmt::format("{}: {} x {} pixels, but the calibrated camera has {} x {}", source, hdr.width,
                                 hdr.height, width_, height_));
@@ -145,6 +198,30 @@ ExtractionStats SphereSampler::extract(const ExrImage& hdr, double table_angle_d
   }
   const bool with_variance = variance[0] && variance[1] && variance[2];
   const ImageF* valid = hdr.find("valid");
+  std::array<int, 4> block{};
+  SiteInverse inverse;
+  if (sites) {
+    const auto attr = [&](const char* key) {
+      const auto it = hdr.attributes.find(key);
+      return it == hdr.attributes.end() ? std::string() : it->second;
+    };
+    const auto b = cfa_block(attr("paintlab.cfa"));
+    if (!b || value[0] == value[1])
+      throw DataError(fmt::format("{}: not the colour image of a Bayer camera (no paintlab.cfa attribute naming RG, "
+                                  "GR, GB or BG): only such sessions are fitted at their filter-array sites",
+                                  source));
+    block = *b;
+    const std::string space = attr("paintlab.colour_space");
+    if (space != colour::kCameraRgb) {
+      if (!site_to_srgb_)
+        throw DataError(fmt::format("{}: in {}, which only the 3x3 matrix colour calibration maps back to camera RGB "
+                                    "at the filter-array sites; the calibration has {}",
+                                    source, space.empty() ? "an unstated colour space" : space,
+                                    cal_->colour() ? "a root-polynomial model" : "no colour.json"));
+      inverse.value = site_to_srgb_->inverse();
+      inverse.variance = site_to_srgb_->cwiseProduct(*site_to_srgb_).inverse();
+    }
+  }
 
   const calib::LightModel light = cal_->light_model();
   const calib::ScaleCalibration& scale = *cal_->scale();
@@ -301,10 +378,15 @@ ExtractionStats SphereSampler::extract(const ExrImage& hdr, double table_angle_d
   // variance, noise and sparkle, while the BRDF's smooth change across the image cancels
   // to first order. Without neighbours, the HDR variance.
   const bool keep_variance = with_variance || local;
-  out.reserve(out.size() + values.size(), keep_variance);
-  if (!out.empty() && out.has_variance() != keep_variance)
-    throw DataError(fmt::format("{}: has{} variance channels, unlike the images before it", source,
-                                keep_variance ? "" : " no"));
+  auto check_batch = [&](SampleBatch& batch, std::size_t expected) {
+    batch.reserve(batch.size() + expected, keep_variance);
+    if (!batch.empty() && batch.has_variance() != keep_variance)
+      throw DataError(fmt::format("{}: has{} variance channels, unlike the images before it", source,
+                                  keep_variance ? "" : " no"));
+  };
+  if (out_one) check_batch(*out_one, values.size());
+  if (sites)
+    for (int c = 0; c < 3; ++c) check_batch((*sites)[static_cast<std::size_t>(c)], values.size() / (c == 1 ? 2 : 4));
   for (Value& v : values) {
     if (local) {
       const std::size_t i = pixels_[v.pixel].index;
@@ -327,25 +409,41 @@ ExtractionStats SphereSampler::extract(const ExrImage& hdr, double table_angle_d
       if (used > 0)
         for (int c = 0; c < 3; ++c) v.var[c] = static_cast<float>(acc[c] / used);
     }
+    SampleBatch* out = out_one;
+    if (sites) {
+      // This pixel's own colour, in camera RGB, in all three channels of its colour's table.
+      const std::size_t i = pixels_[v.pixel].index;
+      const std::size_t x = i % static_cast<std::size_t>(width_), y = i / static_cast<std::size_t>(width_);
+      const int c = block[2 * (y & 1) + (x & 1)];
+      const Eigen::Vector3d rgb(v.rgb[0], v.rgb[1], v.rgb[2]), var(v.var[0], v.var[1], v.var[2]);
+      const float site = static_cast<float>(inverse.value.row(c).dot(rgb));
+      // Rounding can take the solved variance of a noiseless value a little below zero.
+      const float site_var = static_cast<float>(std::max(0.0, inverse.variance.row(c).dot(var)));
+      for (int k = 0; k < 3; ++k) {
+        v.rgb[k] = site;
+        v.var[k] = site_var;
+      }
+      out = &(*sites)[static_cast<std::size_t>(c)];
+    }
     if (keep_variance)
-      out.push_back(v.hd.theta_h, v.hd.theta_d, v.hd.phi_d, v.rgb, v.var);
+      out->push_back(v.hd.theta_h, v.hd.theta_d, v.hd.phi_d, v.rgb, v.var);
     else
-      out.push_back(v.hd.theta_h, v.hd.theta_d, v.hd.phi_d, v.rgb[0], v.rgb[1], v.rgb[2]);
+      out->push_back(v.hd.theta_h, v.hd.theta_d, v.hd.phi_d, v.rgb[0], v.rgb[1], v.rgb[2]);
     ++st.samples;
   }
   return st;
 }
 
-BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
-                       const ExtractionOptions& extraction, const BinningOptions& binning, ExtractionStats* stats) {
-  extraction.check();
-  if (frames.empty()) throw DataError("no HDR images to extract samples from");
-  const SphereSampler sampler(calibration, extraction);
-  spdlog::info("extraction: {} sphere pixels per image (upper half, {:g} px inside the silhouette); lens blur {}",
-               sampler.pixel_count(), extraction.margin_px,
-               sampler.blur_sigma_px() > 0 ? fmt::format("of {:.3f} px corrected", sampler.blur_sigma_px())
-                                           : std::string("not corrected"));
-  BinAccumulator acc(binning);
+namespace {
+
+// Reads, extracts and bins `frames` in a bounded pipeline (extraction.h) into one accumulator,
+// or into three by filter-array site (extraction.cfa_sites).
+std::vector<BinnedTable> extract_and_bin(const std::vector<HdrFrame>& frames, const SphereSampler& sampler,
+                                         const ExtractionOptions& extraction, const BinningOptions& binning,
+                                         ExtractionStats* stats) {
+  const bool by_site = extraction.cfa_sites;
+  std::vector<BinAccumulator> acc;
+  for (int k = 0; k < (by_site ? 3 : 1); ++k) acc.emplace_back(binning);
   const int threads = extraction.threads > 0 ? extraction.threads : tbb::this_task_arena::max_concurrency();
   const std::size_t in_flight =
       static_cast<std::size_t>(extraction.images_in_flight > 0 ? extraction.images_in_flight : 2 * threads);
@@ -354,7 +452,7 @@ BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCali
   std::size_t next = 0;
   struct Item {
     std::size_t index = 0;
-    SampleBatch batch;
+    std::array<SampleBatch, 3> batches;  // [0] alone unless by site
     ExtractionStats stats;
   };
   tbb::task_arena arena(threads);
@@ -376,12 +474,14 @@ BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCali
                   item->index = k;
                   const HdrFrame& f = frames[k];
                   const ExrImage img = read_exr(f.path);
-                  item->stats = sampler.extract(img, f.angle_deg, item->batch, f.path.string());
+                  item->stats = by_site ? sampler.extract_sites(img, f.angle_deg, item->batches, f.path.string())
+                                        : sampler.extract(img, f.angle_deg, item->batches[0], f.path.string());
                   return item;
                 }) &
             tbb::make_filter<std::shared_ptr<Item>, void>(tbb::filter_mode::serial_in_order,
                                                           [&](std::shared_ptr<Item> item) {
-                                                            acc.add(item->batch);
+                                                            for (std::size_t a = 0; a < acc.size(); ++a)
+                                                              acc[a].add(item->batches[a]);
                                                             total.add(item->stats);
                                                             progress.step(fmt::format(
                                                                 "{:.1f} deg", frames[item->index].angle_deg));
@@ -389,7 +489,48 @@ BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCali
   });
   progress.finish(fmt::format("{} samples", total.samples));
   if (stats) *stats = total;
-  return acc.finish();
+  std::vector<BinnedTable> out;
+  for (const BinAccumulator& a : acc) out.push_back(a.finish());
+  return out;
+}
+
+void log_extraction(const SphereSampler& sampler, const ExtractionOptions& extraction) {
+  spdlog::info("extraction: {} sphere pixels per image (upper half, {:g} px inside the silhouette); lens blur {}{}",
+               sampler.pixel_count(), extraction.margin_px,
+               sampler.blur_sigma_px() > 0 ? fmt::format("of {:.3f} px corrected", sampler.blur_sigma_px())
+                                           : std::string("not corrected"),
+               extraction.cfa_sites ? "; each pixel's own filter colour only, binned by colour" : "");
+}
+
+}  // namespace
+
+BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
+                       const ExtractionOptions& extraction, const BinningOptions& binning, ExtractionStats* stats) {
+  extraction.check();
+  if (frames.empty()) throw DataError("no HDR images to extract samples from");
+  if (extraction.cfa_sites)
+    throw DataError("binning at the filter-array sites gives one table per colour (bin_frames_by_site)");
+  const SphereSampler sampler(calibration, extraction);
+  log_extraction(sampler, extraction);
+  return std::move(extract_and_bin(frames, sampler, extraction, binning, stats).front());
+}
+
+SiteTables bin_frames_by_site(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
+                              ExtractionOptions extraction, const BinningOptions& binning, ExtractionStats* stats) {
+  extraction.cfa_sites = true;
+  extraction.check();
+  if (frames.empty()) throw DataError("no HDR images to extract samples from");
+  const SphereSampler sampler(calibration, extraction);
+  log_extraction(sampler, extraction);
+  // The colour space of the frames decides the map back (extract_sites checks each image).
+  const ExrImage first = read_exr(frames.front().path);
+  const auto space = first.attributes.find("paintlab.colour_space");
+  const bool camera_rgb = space != first.attributes.end() && space->second == colour::kCameraRgb;
+  SiteTables out;
+  std::vector<BinnedTable> tables = extract_and_bin(frames, sampler, extraction, binning, stats);
+  for (std::size_t c = 0; c < 3; ++c) out.tables[c] = std::move(tables[c]);
+  if (!camera_rgb) out.to_colour_space = *sampler.site_to_srgb();  // extract_sites refused it otherwise
+  return out;
 }
 
 }  // namespace paintlab::fit

@@ -336,6 +336,32 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& opt
   return data;
 }
 
+FitData combine_site_data(std::array<FitData, 3> per_site) {
+  FitData out;
+  out.options = per_site[1].options;
+  out.has_statistics = per_site[0].has_statistics && per_site[1].has_statistics && per_site[2].has_statistics;
+  out.noise_source = per_site[1].noise_source;
+  out.linear = per_site[1].linear;
+  for (int c = 0; c < 3; ++c) {
+    FitData& d = per_site[static_cast<std::size_t>(c)];
+    const auto offset = static_cast<std::uint32_t>(out.members.size());
+    out.members.insert(out.members.end(), d.members.begin(), d.members.end());
+    for (FitBin b : d.bins) {
+      for (int k = 0; k < 3; ++k)
+        if (k != c) {
+          b.inv_sigma[k] = 0.0;
+          b.linear_weight[k] = 0.0;
+        }
+      if (b.inv_sigma[c] == 0.0) continue;
+      b.member_begin += offset;
+      ++out.residuals;
+      out.bins.push_back(b);
+    }
+  }
+  if (out.bins.empty()) throw DataError("the filter-array sites' tables have no measured bins: nothing to fit");
+  return out;
+}
+
 Json RegionResidual::to_json() const {
   return {{"bins", bins}, {"residuals", residuals}, {"log_rms", log_rms}, {"noise_floor", number_or_null(noise_floor)}};
 }

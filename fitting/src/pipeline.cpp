@@ -1,5 +1,7 @@
 #include "paintlab/fitting/pipeline.h"
 
+#include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <fmt/format.h>
@@ -138,6 +140,41 @@ FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noi
   }
   Json in = input;
   in["coverage"] = coverage(table).to_json();
+  out.fit["input"] = in;
+  return out;
+}
+
+FitOutcome fit_sites(const SiteTables& sites, const FitRequest& request, const Json& input) {
+  if (request.model != FitModel::CookTorrance)
+    throw DataError(fmt::format("a fit at the filter-array sites is a cook-torrance fit; the {} model's colour table "
+                                "is fitted in the session's colour space (fit without the sites)",
+                                to_string(request.model)));
+  const CtFitOptions& options = request.cook_torrance;
+  std::array<FitData, 3> per_site;
+  for (std::size_t c = 0; c < 3; ++c) {
+    const BinnedTable& t = sites.tables[c];
+    per_site[c] = prepare_fit_data(t.table, options.data, t.noise_variance.empty() ? nullptr : &t.noise_variance);
+  }
+  const FitData data = combine_site_data(std::move(per_site));
+  const CookTorranceFit camera = fit_cook_torrance(data, options);
+  int clipped = 0;
+  const CookTorranceFit f = transform_colours(camera, sites.to_colour_space, &clipped);
+  FitOutcome out;
+  out.fit = f.to_json(request.name);
+  out.report = ct_report(f);
+  out.report += fmt::format("  colour            fitted at the filter-array sites in camera RGB (R {}, G {}, B {} fit "
+                            "points; residuals above in camera RGB), kd and ks mapped to the session's colour space{}\n",
+                            std::count_if(data.bins.begin(), data.bins.end(), [](const FitBin& b) { return b.inv_sigma[0] != 0.0; }),
+                            std::count_if(data.bins.begin(), data.bins.end(), [](const FitBin& b) { return b.inv_sigma[1] != 0.0; }),
+                            std::count_if(data.bins.begin(), data.bins.end(), [](const FitBin& b) { return b.inv_sigma[2] != 0.0; }),
+                            clipped > 0 ? fmt::format(" ({} negative value{} outside its gamut set to 0)", clipped,
+                                                      clipped == 1 ? "" : "s")
+                                        : std::string());
+  set_termination(out, f.summary);
+  Json in = input;
+  in["coverage"] = coverage(sites.tables[1].table).to_json();  // the greens: half the pixels
+  Json camera_fit = brdf::to_json(brdf::PaintSpec{request.name, camera.params, std::nullopt, {}});
+  in["camera_rgb_fit"] = {{"kd", camera_fit["kd"]}, {"lobes", camera_fit["lobes"]}};
   out.fit["input"] = in;
   return out;
 }

@@ -7,6 +7,7 @@
 
 #include "paintlab/acquisition/session_reader.h"
 #include "paintlab/core/colour.h"
+#include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/coverage.h"
 #include "paintlab/core/version.h"
@@ -14,6 +15,39 @@
 namespace fs = std::filesystem;
 
 namespace paintlab::fit {
+
+constexpr EnumNames<SiteFit, 3> kSiteFitNames{{{SiteFit::Off, "off"}, {SiteFit::On, "on"}, {SiteFit::Auto, "auto"}}};
+
+const char* to_string(SiteFit s) { return enum_name(kSiteFitNames, s); }
+
+SiteFit site_fit_from_string(std::string_view s, std::string_view where) {
+  return enum_from_name(kSiteFitNames, s, "choice (filter-array sites)", where);
+}
+
+std::optional<std::string> site_fit_refusal(const acq::SessionDir& session, const calib::RigCalibration& calibration,
+                                            const ExtractionOptions& extraction) {
+  const acq::SessionOptions& o = session.manifest().options;
+  if (o.pixel_format.rfind("Bayer", 0) != 0)
+    return fmt::format("it was measured {}, not with a Bayer camera",
+                       o.pixel_format.empty() ? std::string("with a monochrome camera") : "in " + o.pixel_format);
+  if (extraction.blur_sigma_px != 0.0)
+    return std::string("the lens-blur correction (--blur-px) compares a pixel with its neighbours, other colours at "
+                       "the sites");
+  if (extraction.variance == VarianceModel::Local)
+    return std::string("the local variance model (--variance local) compares a pixel with its neighbours, other "
+                       "colours at the sites");
+  if (o.colour_space == colour::kCameraRgb) return std::nullopt;
+  if (!calibration.colour())
+    return std::string("its linear sRGB goes back to camera RGB through the colour calibration, and the calibration "
+                       "folder has no colour.json");
+  if (!calibration.colour()->balanced_srgb_matrix())
+    return fmt::format("the colour calibration is a {} model, which is not linear: only the 3x3 matrix maps sRGB back to "
+                       "camera RGB",
+                       calib::to_string(calibration.colour()->model));
+  if (!calibration.scale() || !calibration.scale()->white_balance())
+    return std::string("the scale calibration has no per-channel scale (scale_rgb) to undo the white balance with");
+  return std::nullopt;
+}
 
 void SessionBinOptions::check() const {
   extraction.check();
@@ -33,9 +67,27 @@ BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOption
   const std::vector<HdrFrame> frames = session_frames(session);
   const calib::RigCalibration cal = acq::session_calibration(session, options.calib_dir);
   spdlog::info("extracting and binning {} HDR images of {}", frames.size(), session.dir().string());
+  ExtractionOptions extraction = options.extraction;
+  if (options.sites != SiteFit::Off && !extraction.cfa_sites) {
+    const std::optional<std::string> refusal = site_fit_refusal(session, cal, extraction);
+    if (refusal && options.sites == SiteFit::On)
+      throw DataError(fmt::format("{}: cannot be fitted at its filter-array sites (--cfa-sites on): {}",
+                                  session.dir().string(), *refusal));
+    if (refusal && session.manifest().options.pixel_format.rfind("Bayer", 0) == 0)
+      spdlog::warn("{}: fitted on the demosaiced image, not at its filter-array sites: {}", session.dir().string(),
+                   *refusal);
+    extraction.cfa_sites = !refusal;
+  }
   BinnedSession out;
-  out.binned = bin_frames(frames, cal, options.extraction, options.binning, &out.stats);
-  spdlog::info("{} samples in {} bins", out.stats.samples, out.binned.table.count_in_state(brdf::BinState::Measured));
+  std::size_t measured = 0;
+  if (extraction.cfa_sites) {
+    out.sites = bin_frames_by_site(frames, cal, extraction, options.binning, &out.stats);
+    for (const BinnedTable& t : out.sites->tables) measured += t.table.count_in_state(brdf::BinState::Measured);
+  } else {
+    out.binned = bin_frames(frames, cal, extraction, options.binning, &out.stats);
+    measured = out.binned.table.count_in_state(brdf::BinState::Measured);
+  }
+  spdlog::info("{} samples in {} bins", out.stats.samples, measured);
   out.input = {{"kind", "session"},
                {"path", fs::absolute(session.dir()).lexically_normal().string()},
                {"sample", session.manifest().sample},
@@ -52,6 +104,13 @@ BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOption
                {"too_sharp", options.extraction.skip_too_sharp ? "skip" : "keep"},
                {"variance", to_string(options.extraction.variance)},
                {"estimator", to_string(options.binning.estimator)}};
+  if (out.sites) {
+    out.input["cfa_sites"] = true;
+    Json m = Json::array();
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) m.push_back(out.sites->to_colour_space(i, j));
+    out.input["site_to_colour_space"] = m;
+  }
   return out;
 }
 
@@ -108,6 +167,13 @@ AxfProvenance session_provenance(const acq::SessionDir& session) {
   return p;
 }
 
+std::size_t FitInput::measured_bins() const {
+  if (!sites) return table.count_in_state(brdf::BinState::Measured);
+  std::size_t n = 0;
+  for (const BinnedTable& t : sites->tables) n += t.table.count_in_state(brdf::BinState::Measured);
+  return n;
+}
+
 FitInput load_fit_input(const fs::path& path, const SessionBinOptions& options) {
   if (!fs::exists(path)) throw IoError(path.string(), "no such file or folder");
   FitInput in;
@@ -118,6 +184,7 @@ FitInput load_fit_input(const fs::path& path, const SessionBinOptions& options) 
                                   path.string()));
     BinnedSession s = bin_session(acq::SessionDir::open(path), options);
     in.table = std::move(s.binned.table);
+    in.sites = std::move(s.sites);
     in.noise_variance = std::move(s.binned.noise_variance);
     in.sample = s.input["sample"].get<std::string>();
     in.input = std::move(s.input);

@@ -24,6 +24,11 @@ struct Fitted {
 // either fails (empty JSON then).
 Fitted measure_and_fit(const fs::path& demo_dir, const std::string& paint_name, int lobes = 2);
 
+// `paintlab fit --lobes N FLAGS` of DIR/session-NAME (measure_and_fit measured it) into
+// DIR/NAME.LABEL.fit.json; an EXPECT failure and empty JSON when it fails.
+Json fit_again(const fs::path& demo_dir, const std::string& paint_name, int lobes, const std::string& flags,
+               const std::string& label);
+
 // The paint file's, the measurement's and the fit's CIELAB at each five-angle geometry
 // (`paintlab colour`), for paints judged as a paint lab judges them: dE00 of the measured
 // values and of the fit against the paint's own.

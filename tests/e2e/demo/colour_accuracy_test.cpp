@@ -33,6 +33,17 @@ Fitted measure_and_fit(const fs::path& demo_dir, const std::string& paint_name, 
   return {read_json_file(session / "session.json")["options"]["sim_paint"], read_json_file(fit)};
 }
 
+Json fit_again(const fs::path& demo_dir, const std::string& paint_name, int lobes, const std::string& flags,
+               const std::string& label) {
+  const fs::path session = demo_dir / ("session-" + paint_name), fit = demo_dir / (paint_name + "." + label + ".fit.json");
+  const auto r = test::run_paintlab("fit " + session.string() + " --model cook-torrance --lobes " +
+                                        std::to_string(lobes) + " " + flags + " --out " + fit.string(),
+                                    240);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  std::printf("%s, fit %s:\n%s", paint_name.c_str(), flags.c_str(), r.out.c_str());
+  return fs::exists(fit) ? read_json_file(fit) : Json();
+}
+
 namespace {
 colour::Lab lab_of(const Json& j) { return {j["L"].get<double>(), j["a"].get<double>(), j["b"].get<double>()}; }
 }  // namespace

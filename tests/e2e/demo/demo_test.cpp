@@ -77,10 +77,11 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
   // The fit against the paint, in colour: the demo's camera is a BayerRG16 colour camera with
   // a channel mix unlike sRGB under a warm LED, so R, G, B come out in linear sRGB and the
   // truth is the paint's own RGB. The diffuse term and the broad metallic lobe per channel;
-  // the clear coat wider than it is (bilinear demosaicing blurs its 2-3 px highlight at half
-  // resolution: m +21 %, ks -6 % in this run; the monochrome camera gets +3 %, docs/colour.md).
-  // (The medium lobe trades ks against F0 on the 19 light positions of --quick; the full demo
-  // reports it.)
+  // the clear coat (a highlight 2-3 px across at half resolution), fitted at the filter-array
+  // sites as `paintlab fit` does for a Bayer camera by default: m +3.4 %, ks +2..+9 % in this
+  // run (on the demosaiced image m +21 %, ks -6 %; docs/colour.md).
+  // (The medium lobe, the silver's sparkle, trades ks against F0 on the 19 light positions of
+  // --quick; the full demo reports it.)
   EXPECT_EQ(s["camera"], "BayerRG16");
   EXPECT_FALSE(s.contains("truth_seen_by_camera"));
   // The measurement as a paint lab reads it: CIELAB at the five angles, of the paint, of the
@@ -107,23 +108,34 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
     EXPECT_LT(rel(fit["lobes"][0]["ks"][ch], truth["lobes"][0]["ks"][ch]), 0.05) << "lobe 1 ks " << ch;
     EXPECT_LT(rel(fit["lobes"][2]["ks"][ch], truth["lobes"][2]["ks"][ch]), 0.15) << "lobe 3 ks " << ch;
   }
-  EXPECT_LT(rel(fit["lobes"][2]["m"], truth["lobes"][2]["m"]), 0.30);
+  EXPECT_EQ(fit["input"]["cfa_sites"], true);
+  EXPECT_LT(rel(fit["lobes"][2]["m"], truth["lobes"][2]["m"]), 0.08);
 
-  // A red metallic (paints/red-metallic.toml, no sparkle) on the same calibrated rig: kd and the
-  // flake lobe per channel within the colour issue's targets; the clear coat (m 0.02, a
-  // highlight 2-3 px across at this resolution) comes out wider (+11 % measured) and brighter:
-  // bilinear demosaicing's cost, which the filter wheel does not pay.
+  // A red metallic (paints/red-metallic.toml, no sparkle) on the same calibrated rig, fitted as
+  // `paintlab fit` does by default for a Bayer camera, at the filter-array sites (each colour
+  // where its filter measured it; docs/fitting.md): kd, both lobes' ks per channel, m and r
+  // within the colour issue's targets (3 %, 8 % for the clear coat's ks, m 2 %, r 5 %),
+  // the clear coat's highlight 2-3 px across at this resolution included. The same session
+  // fitted on its demosaiced image (--cfa-sites off): the clear coat comes out wider (+11 %
+  // measured) and brighter, bilinear demosaicing's cost.
   {
     using colour_accuracy::relative_error;
     const auto [red, red_fit] = colour_accuracy::measure_and_fit(out, "red-metallic");
     ASSERT_TRUE(red_fit.contains("lobes"));
+    EXPECT_EQ(red_fit["input"]["cfa_sites"], true);
     for (int ch = 0; ch < 3; ++ch) {
       EXPECT_LT(relative_error(red_fit["kd"][ch], red["kd"][ch]), 0.03) << "kd " << ch;
-      EXPECT_LT(relative_error(red_fit["lobes"][0]["ks"][ch], red["lobes"][0]["ks"][ch]), 0.05) << "ks " << ch;
+      EXPECT_LT(relative_error(red_fit["lobes"][0]["ks"][ch], red["lobes"][0]["ks"][ch]), 0.03) << "ks " << ch;
+      EXPECT_LT(relative_error(red_fit["lobes"][1]["ks"][ch], red["lobes"][1]["ks"][ch]), 0.08) << "clear coat ks " << ch;
     }
-    EXPECT_LT(relative_error(red_fit["lobes"][0]["m"], red["lobes"][0]["m"]), 0.02);
-    EXPECT_LT(relative_error(red_fit["lobes"][0]["r"], red["lobes"][0]["r"]), 0.05);
-    const double m = red_fit["lobes"][1]["m"].get<double>();
+    for (int l = 0; l < 2; ++l) {
+      EXPECT_LT(relative_error(red_fit["lobes"][l]["m"], red["lobes"][l]["m"]), 0.02) << "lobe " << l + 1 << " m";
+      EXPECT_LT(relative_error(red_fit["lobes"][l]["r"], red["lobes"][l]["r"]), 0.05) << "lobe " << l + 1 << " r";
+    }
+    const Json demosaiced = colour_accuracy::fit_again(out, "red-metallic", 2, "--cfa-sites off", "demosaiced");
+    ASSERT_TRUE(demosaiced.contains("lobes"));
+    EXPECT_FALSE(demosaiced["input"].contains("cfa_sites"));
+    const double m = demosaiced["lobes"][1]["m"].get<double>();
     EXPECT_GT(m, 0.0205);
     EXPECT_LT(m, 0.025);
   }

@@ -107,6 +107,55 @@ TEST(CookTorranceFit, RecoversTwoLobes) {
   expect_recovered(truth, fit.params);
 }
 
+// A fit at the filter-array sites (fit_data.h combine_site_data, ct_fit.h transform_colours):
+// three tables of a paint in a camera's RGB, each standing for one colour's sites, fitted
+// together with channel c taken from table c alone, and mapped back to sRGB by the camera's
+// matrix, recover the sRGB paint; a matrix that takes a colour out of the gamut clips it to 0
+// and says so.
+TEST(CookTorranceFit, AFitAtTheSitesInCameraRgbIsMappedBackToThePaint) {
+  const brdf::CookTorranceParams truth = blue_params();
+  Eigen::Matrix3d to_srgb;  // camera RGB -> sRGB, a camera with some crosstalk
+  to_srgb << 1.25, -0.15, -0.10, -0.08, 1.18, -0.10, 0.02, -0.22, 1.20;
+  const Eigen::Matrix3d to_camera = to_srgb.inverse();
+  brdf::CookTorranceParams camera = truth;
+  camera.kd = (to_camera * truth.kd.matrix()).array();
+  for (brdf::CtLobe& l : camera.lobes) l.ks = (to_camera * l.ks.matrix()).array();
+  ASSERT_TRUE((camera.kd > 0).all());
+  const brdf::CookTorrance paint(camera.kd, camera.lobes);
+  std::array<FitData, 3> per_site;
+  std::size_t bins = 0;
+  for (std::size_t c = 0; c < 3; ++c) {
+    const BinnedTable t = test_support::binned_sweep(paint, 80, 0.02, test::seed() + c, 2.0);
+    per_site[c] = prepare_fit_data(t.table, {}, &t.noise_variance);
+    bins += per_site[c].bins.size();
+  }
+  const FitData data = combine_site_data(per_site);
+  EXPECT_EQ(data.bins.size(), bins);
+  EXPECT_EQ(data.residuals, bins);  // one channel a point
+  for (const FitBin& b : data.bins) {
+    const int used = (b.inv_sigma[0] != 0.0) + (b.inv_sigma[1] != 0.0) + (b.inv_sigma[2] != 0.0);
+    ASSERT_EQ(used, 1);
+  }
+  const CookTorranceFit fit = fit_cook_torrance(data, quick_options(2));
+  print_fit("blue at the sites, camera RGB", fit);
+  EXPECT_TRUE(fit.summary.converged) << fit.summary.termination;
+  expect_recovered(camera, fit.params);
+  int clipped = -1;
+  const CookTorranceFit srgb = transform_colours(fit, to_srgb, &clipped);
+  EXPECT_EQ(clipped, 0);
+  expect_recovered(truth, srgb.params);
+  for (int c = 0; c < 3; ++c) {
+    double var = 0;
+    for (int j = 0; j < 3; ++j) var += to_srgb(c, j) * to_srgb(c, j) * fit.stddev.kd[j] * fit.stddev.kd[j];
+    EXPECT_DOUBLE_EQ(srgb.stddev.kd[c], std::sqrt(var));
+  }
+  Eigen::Matrix3d out_of_gamut = Eigen::Matrix3d::Identity();
+  out_of_gamut(0, 2) = -10.0;  // red loses ten times the blue: negative for the blue paint
+  const CookTorranceFit clipped_fit = transform_colours(fit, out_of_gamut, &clipped);
+  EXPECT_EQ(clipped_fit.params.kd[0], 0.0);
+  EXPECT_GE(clipped, 1);
+}
+
 // Linear residuals (fit_data.h): a point's weight comes from its neighbours' samples and
 // the pooled spread, not from its own value, so a bin that caught a glint is not weighted
 // down for it (log residuals weigh by 1 / value).

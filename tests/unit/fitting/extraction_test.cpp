@@ -9,7 +9,9 @@
 #include <cstdio>
 
 #include "paintlab/brdf/paint.h"
+#include "paintlab/core/colour.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/image_io.h"
 #include "paintlab/fitting/coverage.h"
 #include "paintlab/fitting/ct_fit.h"
 #include "paintlab/sim/paint.h"
@@ -167,6 +169,95 @@ TEST(Extraction, ImagesOfTheWrongSizeOrWithoutRadianceAreRejected) {
   // A calibration folder without the light calibration cannot extract.
   std::filesystem::remove(session->calibration_dir() / calib::kLightFile);
   EXPECT_THROW(SphereSampler(calib::RigCalibration::load(session->calibration_dir())), CalibrationError);
+}
+
+// At the filter-array sites (docs/fitting.md "Fitting a Bayer camera at its sites") a pixel
+// gives the colour its filter measured and nothing else: a simulated frame in camera RGB
+// whose two interpolated colours at every site are spoiled (x3) gives, colour by colour,
+// exactly the values and variances of the clean frame at that colour's sites, in pixel
+// order; the spoiled values reach no table. GenICam's BayerGR: G R / B G.
+TEST(Extraction, AtTheFilterArraySitesEachPixelGivesItsOwnColourOnly) {
+  test_support::SimSessionOptions o;
+  o.sparkle = false;
+  o.width_px = 320;
+  o.height_px = 240;
+  o.focal_length_mm = 12.5;
+  o.start_deg = o.stop_deg = 60.0;
+  auto session = test_support::make_sim_session(
+      sim::sim_paint(brdf::load_paint_file(test::source_dir() / "paints/red-metallic.toml")), o);
+  const calib::RigCalibration cal = calib::RigCalibration::load(session->calibration_dir());
+  ExrImage clean = read_exr(session->frames[0].path);
+  clean.attributes["paintlab.colour_space"] = colour::kCameraRgb;
+  ExrImage spoiled = clean;
+  spoiled.attributes["paintlab.cfa"] = "GR";
+  const int block[2][2] = {{1, 0}, {2, 1}};
+  const char* names[3] = {"R", "G", "B"};
+  for (int c = 0; c < 3; ++c) {
+    ImageF& v = *spoiled.find(names[c]);
+    ImageF& var = *spoiled.find(std::string("var.") + names[c]);
+    for (int y = 0; y < o.height_px; ++y)
+      for (int x = 0; x < o.width_px; ++x)
+        if (block[y & 1][x & 1] != c) {
+          v.data()[y * o.width_px + x] *= 3.0f;
+          var.data()[y * o.width_px + x] *= 9.0f;
+        }
+  }
+  ExtractionOptions plain;
+  plain.threads = 2;
+  ExtractionOptions at_sites = plain;
+  at_sites.cfa_sites = true;
+  SampleBatch all;
+  const ExtractionStats whole = SphereSampler(cal, plain).extract(clean, 60.0, all, "clean.exr");
+  std::array<SampleBatch, 3> sites;
+  const SphereSampler sampler(cal, at_sites);
+  const ExtractionStats by_site = sampler.extract_sites(spoiled, 60.0, sites, "spoiled.exr");
+  EXPECT_EQ(by_site.samples, whole.samples);
+  ASSERT_EQ(sites[0].size() + sites[1].size() + sites[2].size(), all.size());
+  // A quarter of the pixels are red, half green, a quarter blue.
+  EXPECT_NEAR(static_cast<double>(sites[1].size()) / static_cast<double>(all.size()), 0.5, 0.02);
+  EXPECT_NEAR(static_cast<double>(sites[0].size()) / static_cast<double>(all.size()), 0.25, 0.02);
+  std::array<std::size_t, 3> next{0, 0, 0};
+  std::size_t matched = 0;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const SampleBatch& s = sites[static_cast<std::size_t>(c)];
+      const std::size_t k = next[static_cast<std::size_t>(c)];
+      if (k >= s.size() || s.theta_h[k] != all.theta_h[i] || s.theta_d[k] != all.theta_d[i] ||
+          s.phi_d[k] != all.phi_d[i])
+        continue;
+      for (int j = 0; j < 3; ++j) {  // the site's own value in all three channels
+        EXPECT_EQ(s.value[3 * k + static_cast<std::size_t>(j)], all.value[3 * i + static_cast<std::size_t>(c)]);
+        EXPECT_EQ(s.variance[3 * k + static_cast<std::size_t>(j)], all.variance[3 * i + static_cast<std::size_t>(c)]);
+      }
+      ++next[static_cast<std::size_t>(c)];
+      ++matched;
+      break;
+    }
+  }
+  EXPECT_EQ(matched, all.size());
+
+  // An image without the arrangement, one that says it is sRGB without a colour calibration
+  // to invert (this folder has no colour.json), and options that compare a pixel with its
+  // neighbours (other colours at the sites) are refused, naming what is wrong.
+  auto refused = [&](const ExrImage& img, const char* what) {
+    try {
+      sampler.extract_sites(img, 60.0, sites, "frame.exr");
+      ADD_FAILURE() << what;
+    } catch (const DataError& e) {
+      EXPECT_THAT(e.what(), ::testing::HasSubstr(what));
+    }
+  };
+  refused(clean, "frame.exr: not the colour image of a Bayer camera");
+  ExrImage srgb = spoiled;
+  srgb.attributes["paintlab.colour_space"] = colour::kLinearSrgb;
+  refused(srgb, "no colour.json");
+  EXPECT_THROW(sampler.extract(spoiled, 60.0, all, "spoiled.exr"), DataError);
+  ExtractionOptions bad = at_sites;
+  bad.blur_sigma_px = -1.0;
+  EXPECT_THROW(bad.check(), OptionError);
+  bad = at_sites;
+  bad.variance = VarianceModel::Local;
+  EXPECT_THROW(bad.check(), OptionError);
 }
 
 }  // namespace

@@ -126,6 +126,14 @@ TEST(FitCli, BadInputFailsWithoutWritingAnything) {
   r = test::run_paintlab("fit " + (dir / "missing.binary").string() + " --out " + out);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_FALSE(fs::exists(out));
+  // A table does not say which pixel measured which colour.
+  r = test::run_paintlab("fit " + (dir / "holes.binary").string() + " --cfa-sites on --out " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--cfa-sites on: " + (dir / "holes.binary").string() + " is a table"));
+  r = test::run_paintlab("fit " + (dir / "holes.binary").string() + " --cfa-sites always --out " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--cfa-sites"));
+  EXPECT_FALSE(fs::exists(out));
 }
 
 // A fit stopped at its iteration limit is written all the same, with "converged": false and
@@ -212,6 +220,12 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   EXPECT_THAT(r.err, HasSubstr("--blur-px"));
 
   const fs::path out = sim->dir / "fit.json";
+  // Not a Bayer camera's session: no filter-array sites to fit at (the default, auto, fits
+  // the image as it is).
+  r = test::run_paintlab("fit " + session.string() + calib + " --lobes 2 --cfa-sites on --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("cannot be fitted at its filter-array sites (--cfa-sites on)"));
+  EXPECT_FALSE(fs::exists(out));
   r = test::run_paintlab("fit " + session.string() + calib + " --lobes 2 --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("cook-torrance, 2 lobes"));
@@ -224,6 +238,7 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   // The extraction rules it was binned with: no blur in this calibration, the 2 px margin.
   EXPECT_EQ(j["input"]["blur_sigma_px"].get<double>(), 0.0);
   EXPECT_EQ(j["input"]["valid_margin_px"].get<int>(), 2);
+  EXPECT_FALSE(j["input"].contains("cfa_sites"));
   const brdf::PaintSpec fitted = brdf::paint_from_json(j, "fit.json");
   const auto* truth = spec.cook_torrance();
   const auto* ct = fitted.cook_torrance();

@@ -27,6 +27,7 @@
 #include <array>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -114,6 +115,9 @@ struct ColourCalibration {
   colour::Rgb to_srgb_balanced(const colour::Rgb& balanced) const {
     return colour::xyz_to_srgb(to_xyz_balanced(balanced));
   }
+  // The matrix model as one linear map from balanced camera values to linear sRGB (D65):
+  // xyz_to_srgb M diag(camera_white). Unset for the root polynomials, which are not linear.
+  std::optional<Eigen::Matrix3d> balanced_srgb_matrix() const;
 
   // The model, the patches used, mean/median/max dE00 and the worst patch, in one line.
   std::string describe() const;

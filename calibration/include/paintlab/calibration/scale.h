@@ -73,6 +73,10 @@ struct ScaleCalibration {
   // LED intensity (LightModel::irradiance with this profile exponent).
   double brdf(double rate, double irradiance) const { return rate / (scale * irradiance); }
 
+  // A colour camera's white balance under the LED: scale / scale_rgb per channel, the factors
+  // that make the camera channels of a grey surface equal. Unset without scale_rgb.
+  std::optional<std::array<double, 3>> white_balance() const;
+
   // The scale with its uncertainty, the agreement between images, the LED profile and the
   // saturated share, in one line.
   std::string describe() const;

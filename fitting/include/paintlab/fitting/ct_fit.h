@@ -91,6 +91,14 @@ struct CookTorranceFit {
 // summary.converged = false (callers decide).
 CookTorranceFit fit_cook_torrance(const FitData& data, const CtFitOptions& options = {});
 
+// A fit made in one linear colour space expressed in another, out = `to` (3x3) in: kd and
+// every lobe's ks are mapped (the model is linear in them; m and r are shared by the
+// channels and stay), their standard deviations as sqrt(to o to var) with the channels
+// taken as independent. A channel that comes out negative (a colour outside the target
+// space's gamut) is set to 0 and counted in `clipped` when given. The residuals and
+// the solver summary stay those of the fit (in the space it was made in).
+CookTorranceFit transform_colours(const CookTorranceFit& fit, const Eigen::Matrix3d& to, int* clipped = nullptr);
+
 // The model at every fit bin (3 values per bin, at the mean coordinates).
 std::vector<double> evaluate_cook_torrance(const FitData& data, const brdf::CookTorranceParams& params);
 

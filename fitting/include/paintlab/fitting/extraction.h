@@ -22,8 +22,10 @@
 // sphere pixels. bin_frames() streams images through a bounded pipeline: images are read
 // and extracted in parallel, and binned in input order, so memory stays bounded (a few
 // images in flight) and the table is the same whatever the thread count.
+#include <array>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -67,6 +69,14 @@ struct ExtractionOptions {
   // (only the ones noise lifted over the floor are there: biased bright), next to saturated
   // ones it holds their spill. [0, 10]; 0: only the pixel itself.
   int valid_margin_px = 2;
+  // Colour-filter-array sites (docs/fitting.md "Fitting a Bayer camera at its sites"): of a
+  // demosaiced image, keep at every pixel only the colour its filter measured, in camera
+  // RGB (the stored linear sRGB through the inverse of the colour calibration's matrix), and
+  // bin each colour's sites into a table of its own (bin_frames_by_site): no value that
+  // demosaicing interpolated reaches the fit. Needs the 3x3 matrix colour model for sRGB
+  // sessions; not with the lens-blur correction or the local variance model (both compare
+  // a pixel with its neighbours, which are other colours here).
+  bool cfa_sites = false;
   int threads = 0;              // bin_frames(): 0 = all cores
   int images_in_flight = 0;     // bin_frames(): 0 = 2 x threads
   void check() const;           // DataError naming the first violated rule
@@ -118,6 +128,18 @@ class SphereSampler {
   // when the image size or channels are wrong.
   ExtractionStats extract(const ExrImage& hdr, double table_angle_deg, SampleBatch& out,
                           const std::string& source = "HDR image") const;
+  // With ExtractionOptions::cfa_sites: the samples of a demosaiced colour image, each pixel's
+  // own colour only (camera RGB, 1/sr: the value in all three channels of the sample) into
+  // `out[c]` for a site of colour c. DataError naming `source` for an image without the
+  // paintlab.cfa attribute (not from a Bayer camera) or in sRGB without a matrix colour
+  // calibration to invert.
+  ExtractionStats extract_sites(const ExrImage& hdr, double table_angle_deg, std::array<SampleBatch, 3>& out,
+                                const std::string& source = "HDR image") const;
+  // cfa_sites: the linear map from the camera RGB of the site tables to the linear sRGB of
+  // the session (the colour calibration's balanced matrix times the white balance), with
+  // which a model fitted at the sites becomes the paint; unset without a matrix colour
+  // calibration (then only camera-RGB sessions can be read at their sites).
+  const std::optional<Eigen::Matrix3d>& site_to_srgb() const { return site_to_srgb_; }
 
  private:
   struct Pixel {
@@ -131,11 +153,27 @@ class SphereSampler {
   int width_ = 0, height_ = 0;
   double blur_sigma_px_ = 0.0;
   std::vector<Pixel> pixels_;
+  std::optional<Eigen::Matrix3d> site_to_srgb_;
+
+  ExtractionStats extract_into(const ExrImage& hdr, double table_angle_deg, SampleBatch* out,
+                               std::array<SampleBatch, 3>* sites, const std::string& source) const;
 };
 
 // Reads, extracts and bins a list of frames (see above). IoError/DataError name the file.
 BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
                        const ExtractionOptions& extraction, const BinningOptions& binning,
                        ExtractionStats* stats = nullptr);
+
+// The frames of a colour session binned at their colour-filter-array sites
+// (ExtractionOptions::cfa_sites, which this sets): one table per camera colour (R, G, B),
+// each holding in all three channels the values of that colour's sites, and the map from
+// camera RGB to the session's colour space (identity for camera-RGB sessions).
+struct SiteTables {
+  std::array<BinnedTable, 3> tables;
+  Eigen::Matrix3d to_colour_space = Eigen::Matrix3d::Identity();
+};
+SiteTables bin_frames_by_site(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
+                              ExtractionOptions extraction, const BinningOptions& binning,
+                              ExtractionStats* stats = nullptr);
 
 }  // namespace paintlab::fit

@@ -161,6 +161,13 @@ std::vector<double> evaluate_bins(const FitData& data, const brdf::Rgb& base, Me
 FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& options = {},
                          const std::vector<float>* noise_variance = nullptr);
 
+// One fit of the three tables of a Bayer session binned at its filter-array sites
+// (extraction.h bin_frames_by_site): the points of table c keep channel c alone (the other
+// channels' weights are zero), so a model with per-channel kd and ks and shared m and r is
+// fitted in camera RGB to every colour's own sites. Each table's points are prepared as
+// prepare_fit_data does (their pooling and pooled variances within the table).
+FitData combine_site_data(std::array<FitData, 3> per_site);
+
 // Residual statistics of model predictions `model` (3 per fit bin, 1/sr) against the data:
 // unweighted log-RMS of log(model) - log(value) over used (bin, channel) pairs, overall
 // and per region, and the noise floor (RMS of noise_sigma: what a perfect model would leave).

@@ -15,6 +15,7 @@
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/axf_fit.h"
 #include "paintlab/fitting/ct_fit.h"
+#include "paintlab/fitting/extraction.h"
 
 namespace paintlab::fit {
 
@@ -62,6 +63,14 @@ struct FitOutcome {
 // start gave a usable solution.
 FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noise_variance, const FitRequest& request,
                      const Json& input);
+
+// Fits the Cook-Torrance model to a session binned at its filter-array sites (extraction.h
+// ExtractionOptions::cfa_sites): in camera RGB, each channel to its own colour's sites
+// (combine_site_data), then kd and ks mapped to the session's colour space by
+// `sites.to_colour_space` (transform_colours). The residuals in fit.json are those in camera
+// RGB. DataError for the AxF car-paint model (its colour table is fitted in the session's
+// colour space).
+FitOutcome fit_sites(const SiteTables& sites, const FitRequest& request, const Json& input);
 
 // A paint name from free text (a file stem, a sample name): lower case, characters outside
 // [a-z0-9._-] become '-', never empty.

@@ -5,6 +5,8 @@
 // bin a session through bin_session(), with the same options and the same "input" object.
 #include <filesystem>
 #include <optional>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "paintlab/acquisition/session.h"
@@ -15,27 +17,47 @@
 
 namespace paintlab::fit {
 
+// Whether a session is binned at its colour-filter-array sites for a fit
+// (ExtractionOptions::cfa_sites, docs/fitting.md "Fitting a Bayer camera at its sites").
+enum class SiteFit {
+  Off,   // the demosaiced colour image (a table for `paintlab bin`, the MERL export, CIELAB)
+  On,    // at the sites; DataError when the session cannot be (site_fit_refusal says why)
+  Auto,  // at the sites when the session can be: a Bayer camera, colours the calibration maps back
+};
+const char* to_string(SiteFit s);  // "off", "on", "auto"
+// DataError naming `where` for other names.
+SiteFit site_fit_from_string(std::string_view s, std::string_view where);
+
 // How a session is extracted and binned.
 struct SessionBinOptions {
   ExtractionOptions extraction;
   BinningOptions binning;
+  SiteFit sites = SiteFit::Off;  // decides extraction.cfa_sites for the session
   // The calibration folder; default: the one of the rig file the session names.
   std::optional<std::filesystem::path> calib_dir;
   void check() const;  // DataError naming the first violated rule
 };
 
 struct BinnedSession {
-  BinnedTable binned;
+  BinnedTable binned;                // empty with extraction.cfa_sites
+  std::optional<SiteTables> sites;   // extraction.cfa_sites: one table per filter colour
   ExtractionStats stats;
   // fit.json's "input": {"kind": "session", "path", "sample", "positions", "session_sha256",
   // "extraction" (ExtractionStats), "margin_px", "blur_sigma_px" (the lens blur
-  // corrected, 0: none), "valid_margin_px", "variance", "estimator"}.
+  // corrected, 0: none), "valid_margin_px", "variance", "estimator", and with cfa_sites
+  // "cfa_sites": true and "site_to_colour_space" (3x3 row-major)}.
   Json input;
 };
 
 // The finished positions of a session as HDR frames (file and table angle), index order.
 // DataError when none is finished.
 std::vector<HdrFrame> session_frames(const acq::SessionDir& session);
+
+// Why `session` cannot be binned at its filter-array sites with `extraction` and `calibration`
+// (not a Bayer camera, a root-polynomial colour calibration, the lens-blur correction or the
+// local variance model asked for), or nullopt when it can.
+std::optional<std::string> site_fit_refusal(const acq::SessionDir& session, const calib::RigCalibration& calibration,
+                                            const ExtractionOptions& extraction);
 
 // Extracts and bins every HDR image of a complete session (acq::require_complete_session:
 // DataError naming the missing positions and `paintlab measure --resume` otherwise).
@@ -47,12 +69,14 @@ BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOption
 // nearly full table without a map is warned about. DataError/IoError naming `path` when it
 // is neither.
 struct FitInput {
-  brdf::MerlTable table;
+  brdf::MerlTable table;                 // empty when `sites` holds the data
+  std::optional<SiteTables> sites;       // a session binned at its filter-array sites (cfa_sites)
   std::vector<float> noise_variance;     // 3 per bin (sessions); empty for tables
   Json input;                            // fit.json's "input"
   std::string sample;                    // the session's sample, or the table file's stem
   std::optional<ExtractionStats> stats;  // sessions: what extraction found
   std::vector<std::string> warnings;     // for people: bins left out, or a table that looks filled
+  std::size_t measured_bins() const;     // of the table, or of the three site tables together
 };
 FitInput load_fit_input(const std::filesystem::path& path, const SessionBinOptions& options);
 
