@@ -35,11 +35,8 @@ void ExtractionOptions::check() const {
   if (!(blur_sigma_px <= 10.0)) fail("blur_sigma_px", blur_sigma_px, "<= 10 (< 0: the calibration's)");
   if (!(max_blur_correction > 0.0 && max_blur_correction <= 1.0))
     fail("max_blur_correction", max_blur_correction, "in (0, 1]");
-  // Both compare a pixel with its four neighbours, which at a filter-array site are the
-  // other colours (interpolated values, the very thing cfa_sites keeps out of the fit).
-  if (cfa_sites && blur_sigma_px != 0.0)
-    throw OptionError("ExtractionOptions::cfa_sites", "true",
-                      "not with the lens-blur correction (blur_sigma_px != 0): a site's neighbours are other colours");
+  // The local variance compares a pixel with its four neighbours, which at a filter-array
+  // site are the other colours (interpolated values, the very thing cfa_sites keeps out).
   if (cfa_sites && variance == VarianceModel::Local)
     throw OptionError("ExtractionOptions::cfa_sites", "true",
                       "not with the local variance model: a site's neighbours are other colours");
@@ -222,6 +219,34 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
       inverse.variance = site_to_srgb_->cwiseProduct(*site_to_srgb_).inverse();
     }
   }
+  // At the filter-array sites: every pixel's own colour in camera RGB (its "mosaic" value)
+  // and its variance, so the lens-blur correction below can look at the nearest sites of the
+  // same colour.
+  std::vector<float> mosaic, mosaic_var;
+  auto site_colour = [&](std::size_t i) {
+    const std::size_t x = i % static_cast<std::size_t>(width_), y = i / static_cast<std::size_t>(width_);
+    return block[2 * (y & 1) + (x & 1)];
+  };
+  if (sites) {
+    const std::size_t n = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
+    mosaic.resize(n);
+    mosaic_var.assign(n, 0.0f);
+    tbb::parallel_for(0, height_, [&](int y) {
+      for (int x = 0; x < width_; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(x);
+        const int c = site_colour(i);
+        const Eigen::Vector3d rgb(value[0]->data()[i], value[1]->data()[i], value[2]->data()[i]);
+        mosaic[i] = static_cast<float>(inverse.value.row(c).dot(rgb));
+        if (with_variance) {
+          const Eigen::Vector3d var(variance[0]->data()[i], variance[1]->data()[i], variance[2]->data()[i]);
+          // Rounding can take the solved variance of a noiseless value a little below zero.
+          mosaic_var[i] = static_cast<float>(std::max(0.0, inverse.variance.row(c).dot(var)));
+        }
+      }
+    });
+  }
+  auto value_at = [&](int c, std::size_t i) { return sites ? mosaic[i] : value[c]->data()[i]; };
+  auto variance_at = [&](int c, std::size_t i) { return sites ? mosaic_var[i] : variance[c]->data()[i]; };
 
   const calib::LightModel light = cal_->light_model();
   const calib::ScaleCalibration& scale = *cal_->scale();
@@ -250,8 +275,16 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
   auto deblur = [&](std::size_t i, float* rgb, float* var) {
     const std::size_t w = static_cast<std::size_t>(width_);
     const std::size_t x = i % w, y = i / w;
-    if (x < 1 || y < 1 || x + 1 >= w || y + 1 >= static_cast<std::size_t>(height_)) return Deblur::Rejected;
-    const std::size_t nb[4] = {i - 1, i + 1, i - w, i + w};
+    // The four nearest pixels that measured the same colour, and the squared spacing h2 of
+    // their Laplacian, (sum - 4 I) / h2: the four neighbours (h2 1), or at the filter-array
+    // sites the sites of the pixel's own colour, two pixels away for red and blue (h2 4), the
+    // diagonal greens for green (h2 2).
+    const bool green = sites && site_colour(i) == 1;
+    const std::size_t d = sites && !green ? 2 : 1;
+    const double h2 = !sites ? 1.0 : green ? 2.0 : 4.0;
+    if (x < d || y < d || x + d >= w || y + d >= static_cast<std::size_t>(height_)) return Deblur::Rejected;
+    const std::array<std::size_t, 4> nb = green ? std::array<std::size_t, 4>{i - w - 1, i - w + 1, i + w - 1, i + w + 1}
+                                                : std::array<std::size_t, 4>{i - d, i + d, i - d * w, i + d * w};
     // An invalid neighbour holds a bound (hdr_merge.h): one at most this pixel's value is
     // a dark one (below the noise floor), taken as a value uniform between 0 and it; a
     // brighter one may be saturated, and its spill is unknown.
@@ -260,24 +293,25 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
       for (int q = 0; q < 4; ++q) {
         if (valid->data()[nb[q]] > 0.5f) continue;
         for (int c = 0; c < 3; ++c) {
-          const float u = value[c]->data()[nb[q]];
+          const float u = value_at(c, nb[q]);
           if (!(std::isfinite(u) && u <= rgb[c])) return Deblur::Rejected;
         }
         dark[q] = true;
       }
+    const double k = blur_k / h2;
     float out[3], out_var[3];
     bool changed = false;
     for (int c = 0; c < 3; ++c) {
       double sum = 0.0, var_sum = 0.0;
       for (int q = 0; q < 4; ++q) {
-        const double u = value[c]->data()[nb[q]];
+        const double u = value_at(c, nb[q]);
         sum += u;
         if (dark[q]) var_sum += u * u / 12.0;
-        else if (with_variance) var_sum += variance[c]->data()[nb[q]];
+        else if (with_variance) var_sum += variance_at(c, nb[q]);
       }
       if (!std::isfinite(sum) || !std::isfinite(var_sum)) return Deblur::NonFinite;
-      const double correction = blur_k * (sum - 4.0 * rgb[c]);
-      const double sd = blur_k * std::sqrt(var_sum + 16.0 * var[c]);
+      const double correction = k * (sum - 4.0 * rgb[c]);
+      const double sd = k * std::sqrt(var_sum + 16.0 * var[c]);
       const double corrected = rgb[c] - correction;
       if (std::abs(correction) > options_.max_blur_correction * std::abs(corrected) + 3.0 * sd)
         return options_.skip_too_sharp ? Deblur::Rejected : Deblur::Unresolved;
@@ -285,7 +319,7 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
       out_var[c] = var[c];
       if (std::abs(correction) > 2.0 * sd) {
         out[c] = static_cast<float>(corrected);
-        out_var[c] = static_cast<float>((1.0 + 4.0 * blur_k) * (1.0 + 4.0 * blur_k) * var[c] + blur_k * blur_k * var_sum);
+        out_var[c] = static_cast<float>((1.0 + 4.0 * k) * (1.0 + 4.0 * k) * var[c] + k * k * var_sum);
         changed = true;
       }
     }
@@ -328,8 +362,8 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
     v.pixel = static_cast<std::uint32_t>(k);
     bool finite = true;
     for (int c = 0; c < 3; ++c) {
-      v.rgb[c] = value[c]->data()[i];
-      v.var[c] = with_variance ? variance[c]->data()[i] : 0.0f;
+      v.rgb[c] = value_at(c, i);
+      v.var[c] = with_variance ? variance_at(c, i) : 0.0f;
       finite = finite && std::isfinite(v.rgb[c]) && std::isfinite(v.var[c]);
     }
     if (!finite) {
@@ -409,22 +443,9 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
       if (used > 0)
         for (int c = 0; c < 3; ++c) v.var[c] = static_cast<float>(acc[c] / used);
     }
-    SampleBatch* out = out_one;
-    if (sites) {
-      // This pixel's own colour, in camera RGB, in all three channels of its colour's table.
-      const std::size_t i = pixels_[v.pixel].index;
-      const std::size_t x = i % static_cast<std::size_t>(width_), y = i / static_cast<std::size_t>(width_);
-      const int c = block[2 * (y & 1) + (x & 1)];
-      const Eigen::Vector3d rgb(v.rgb[0], v.rgb[1], v.rgb[2]), var(v.var[0], v.var[1], v.var[2]);
-      const float site = static_cast<float>(inverse.value.row(c).dot(rgb));
-      // Rounding can take the solved variance of a noiseless value a little below zero.
-      const float site_var = static_cast<float>(std::max(0.0, inverse.variance.row(c).dot(var)));
-      for (int k = 0; k < 3; ++k) {
-        v.rgb[k] = site;
-        v.var[k] = site_var;
-      }
-      out = &(*sites)[static_cast<std::size_t>(c)];
-    }
+    // At the sites the value (in all three channels) is the pixel's own colour's: it goes to
+    // that colour's table.
+    SampleBatch* out = sites ? &(*sites)[static_cast<std::size_t>(site_colour(pixels_[v.pixel].index))] : out_one;
     if (keep_variance)
       out->push_back(v.hd.theta_h, v.hd.theta_d, v.hd.phi_d, v.rgb, v.var);
     else

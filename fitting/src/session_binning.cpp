@@ -30,9 +30,6 @@ std::optional<std::string> site_fit_refusal(const acq::SessionDir& session, cons
   if (o.pixel_format.rfind("Bayer", 0) != 0)
     return fmt::format("it was measured {}, not with a Bayer camera",
                        o.pixel_format.empty() ? std::string("with a monochrome camera") : "in " + o.pixel_format);
-  if (extraction.blur_sigma_px != 0.0)
-    return std::string("the lens-blur correction (--blur-px) compares a pixel with its neighbours, other colours at "
-                       "the sites");
   if (extraction.variance == VarianceModel::Local)
     return std::string("the local variance model (--variance local) compares a pixel with its neighbours, other "
                        "colours at the sites");

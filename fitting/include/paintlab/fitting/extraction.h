@@ -74,8 +74,10 @@ struct ExtractionOptions {
   // RGB (the stored linear sRGB through the inverse of the colour calibration's matrix), and
   // bin each colour's sites into a table of its own (bin_frames_by_site): no value that
   // demosaicing interpolated reaches the fit. Needs the 3x3 matrix colour model for sRGB
-  // sessions; not with the lens-blur correction or the local variance model (both compare
-  // a pixel with its neighbours, which are other colours here).
+  // sessions. The lens-blur correction takes its Laplacian over the nearest sites of the
+  // pixel's own colour (two pixels away for red and blue, the diagonal greens for green);
+  // not with the local variance model (it compares a pixel with its four neighbours, which
+  // are other colours here).
   bool cfa_sites = false;
   int threads = 0;              // bin_frames(): 0 = all cores
   int images_in_flight = 0;     // bin_frames(): 0 = 2 x threads

@@ -54,8 +54,8 @@ struct BinnedSession {
 std::vector<HdrFrame> session_frames(const acq::SessionDir& session);
 
 // Why `session` cannot be binned at its filter-array sites with `extraction` and `calibration`
-// (not a Bayer camera, a root-polynomial colour calibration, the lens-blur correction or the
-// local variance model asked for), or nullopt when it can.
+// (not a Bayer camera, a root-polynomial colour calibration, the local variance model asked
+// for), or nullopt when it can.
 std::optional<std::string> site_fit_refusal(const acq::SessionDir& session, const calib::RigCalibration& calibration,
                                             const ExtractionOptions& extraction);
 
