@@ -53,8 +53,8 @@ void add_cfa_sites_option(CLI::App* sub, ExtractArgs& a) {
   sub->add_option("--cfa-sites", a.cfa_sites,
                   "Bayer cameras: fit every colour at the pixels whose filter measured it (camera RGB, then kd and ks "
                   "mapped to the session's colour space), so no demosaiced value reaches the fit and a highlight a "
-                  "few pixels across keeps its width. auto: whenever the session allows it (a Bayer camera, the 3x3 "
-                  "matrix colour calibration, cook-torrance, not --variance local); on: or fail "
+                  "few pixels across keeps its width. auto: whenever the session allows it (a Bayer camera, bilinear "
+                  "demosaicing, the 3x3 matrix colour calibration, cook-torrance, not --variance local); on: or fail "
                   "saying why; off: fit the demosaiced image (docs/fitting.md \"Fitting a Bayer camera at its sites\")")
       ->check(CLI::IsMember({"auto", "on", "off"}))
       ->capture_default_str();

@@ -83,8 +83,11 @@ void export_session(const ExportRequest& r, ExportResult& result) {
   // and the car-paint model's fit take the demosaiced image, binned separately when needed.
   const bool any_other_model =
       std::any_of(models.begin(), models.end(), [](FitModel m) { return m != FitModel::CookTorrance; });
+  const bool cook_torrance = std::find(models.begin(), models.end(), FitModel::CookTorrance) != models.end();
   SessionBinOptions site_options = with_threads(r.bin, r.threads);
-  if (!r.axf) site_options.sites = SiteFit::Off;
+  if (site_options.sites == SiteFit::On && !(r.axf && cook_torrance))
+    throw UsageError("--cfa-sites on is for the cook-torrance fit of --axf (--model cook-torrance or both)");
+  if (!r.axf || !cook_torrance) site_options.sites = SiteFit::Off;
   BinnedSession s = bin_session(session, site_options);
   std::optional<BinnedSession> demosaiced;
   auto demosaiced_table = [&]() -> BinnedTable& {

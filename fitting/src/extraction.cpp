@@ -214,7 +214,10 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
         throw DataError(fmt::format("{}: in {}, which only the 3x3 matrix colour calibration maps back to camera RGB "
                                     "at the filter-array sites; the calibration has {}",
                                     source, space.empty() ? "an unstated colour space" : space,
-                                    cal_->colour() ? "a root-polynomial model" : "no colour.json"));
+                                    !cal_->colour()                                ? "no colour.json"
+                                    : !cal_->colour()->balanced_srgb_matrix()      ? "a root-polynomial model"
+                                                                                   : "no per-channel scale (scale_rgb) "
+                                                                                     "to undo the white balance with"));
       inverse.value = site_to_srgb_->inverse();
       inverse.variance = site_to_srgb_->cwiseProduct(*site_to_srgb_).inverse();
     }
@@ -239,8 +242,10 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
         mosaic[i] = static_cast<float>(inverse.value.row(c).dot(rgb));
         if (with_variance) {
           const Eigen::Vector3d var(variance[0]->data()[i], variance[1]->data()[i], variance[2]->data()[i]);
-          // Rounding can take the solved variance of a noiseless value a little below zero.
-          mosaic_var[i] = static_cast<float>(std::max(0.0, inverse.variance.row(c).dot(var)));
+          // Rounding can take the solved variance of a noiseless value a little below zero; a
+          // non-finite one stays non-finite (the pixel is then left out as such).
+          const double u = inverse.variance.row(c).dot(var);
+          mosaic_var[i] = static_cast<float>(u < 0.0 ? 0.0 : u);
         }
       }
     });

@@ -153,7 +153,11 @@ FitOutcome fit_sites(const SiteTables& sites, const FitRequest& request, const J
   std::array<FitData, 3> per_site;
   for (std::size_t c = 0; c < 3; ++c) {
     const BinnedTable& t = sites.tables[c];
-    per_site[c] = prepare_fit_data(t.table, options.data, t.noise_variance.empty() ? nullptr : &t.noise_variance);
+    try {
+      per_site[c] = prepare_fit_data(t.table, options.data, t.noise_variance.empty() ? nullptr : &t.noise_variance);
+    } catch (const DataError& e) {
+      throw DataError(fmt::format("the {} sites: {}", std::array<const char*, 3>{"red", "green", "blue"}[c], e.what()));
+    }
   }
   const FitData data = combine_site_data(std::move(per_site));
   const CookTorranceFit camera = fit_cook_torrance(data, options);

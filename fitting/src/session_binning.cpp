@@ -34,6 +34,13 @@ std::optional<std::string> site_fit_refusal(const acq::SessionDir& session, cons
     return std::string("the local variance model (--variance local) compares a pixel with its neighbours, other "
                        "colours at the sites");
   if (o.colour_space == colour::kCameraRgb) return std::nullopt;
+  // The variance of a site's own colour comes back out of the stored sRGB only when the
+  // three channels of a pixel come from different sites (bilinear demosaicing); the
+  // gradient-corrected kernels mix the site itself into the other colours.
+  if (o.demosaic == "gradient-corrected")
+    return std::string("it was demosaiced gradient-corrected, whose colours of a pixel share its own site: the site's "
+                       "variance cannot be taken back out of its linear sRGB (measure with bilinear demosaicing, the "
+                       "default, to fit at the sites)");
   if (!calibration.colour())
     return std::string("its linear sRGB goes back to camera RGB through the colour calibration, and the calibration "
                        "folder has no colour.json");
@@ -84,7 +91,8 @@ BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOption
     out.binned = bin_frames(frames, cal, extraction, options.binning, &out.stats);
     measured = out.binned.table.count_in_state(brdf::BinState::Measured);
   }
-  spdlog::info("{} samples in {} bins", out.stats.samples, measured);
+  spdlog::info("{} samples in {} bins{}", out.stats.samples, measured,
+               out.sites ? " (the three colours' tables together)" : "");
   out.input = {{"kind", "session"},
                {"path", fs::absolute(session.dir()).lexically_normal().string()},
                {"sample", session.manifest().sample},

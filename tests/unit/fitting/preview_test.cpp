@@ -382,6 +382,15 @@ TEST(PreviewCli, ExportASessionAndCompareWithIt) {
   r = test::run_paintlab("export " + session.string() + " --axf " + (tmp / "x.h5").string() + " --model phong" + calib);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_FALSE(fs::exists(tmp / "x.h5"));
+  // The filter-array sites are for the Cook-Torrance fit, and for a Bayer camera's session.
+  r = test::run_paintlab("export " + session.string() + " --axf " + (tmp / "x.h5").string() +
+                         " --model axf-carpaint --cfa-sites on" + calib);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--cfa-sites on is for the cook-torrance fit"));
+  r = test::run_paintlab("export " + session.string() + " --axf " + (tmp / "x.h5").string() + " --cfa-sites on" + calib);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("cannot be fitted at its filter-array sites"));
+  EXPECT_FALSE(fs::exists(tmp / "x.h5"));
 }
 
 // The functions `paintlab demo` calls (fitting/export.h), on one simulated session:
