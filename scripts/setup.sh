@@ -25,6 +25,9 @@ packages=(
   # imports serial_asyncio)
   aravis-tools aravis-tools-cli socat umockdev libumockdev-dev python3-pymodbus python3-serial python3-serial-asyncio
   opencv-doc
+  # reports (paintlab report): gnuplot's SVG terminal draws the plots; the report test loads the
+  # page in Debian's headless Chromium
+  gnuplot-nox chromium
 )
 
 missing=()

@@ -15,6 +15,8 @@
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/rig.h"
+#include "paintlab/core/atomic_file.h"
+#include "paintlab/report/report.h"
 
 namespace fs = std::filesystem;
 
@@ -32,6 +34,7 @@ struct CheckArgs {
   bool capture = false;
   std::string images;
   bool json = false;
+  std::string report;
 };
 
 int run_check(const CheckArgs& a) {
@@ -42,7 +45,12 @@ int run_check(const CheckArgs& a) {
   OutputSpec out("--rig", rig.calibration_dir / calib::kCheckFile);
   out.beside = a.rig;
   out.create_parents = true;
-  fit::OutputGuard().input("--rig", a.rig).input_tree("--images", a.images).output(out).check();
+  fit::OutputGuard()
+      .input("--rig", a.rig)
+      .input_tree("--images", a.images)
+      .output(out)
+      .output({"--report", a.report})
+      .check();
 
   const calib::RigCalibration cal = calib::RigCalibration::load(rig);
   acq::LiveCheck live;
@@ -61,6 +69,13 @@ int run_check(const CheckArgs& a) {
   fs::create_directories(rig.calibration_dir);
   report.save(rig.calibration_dir / calib::kCheckFile);
   say(a.json ? report.to_json().dump(2) : report.table());
+  if (!a.report.empty()) {
+    // The calibration folder's report, failing checks first (written whether the check passed or not).
+    const paintlab::report::Report page =
+        paintlab::report::make_report(paintlab::report::classify_input(rig.calibration_dir));
+    write_file_atomic(a.report, page.html);
+    say(fmt::format("wrote {} (the calibration and this check)", a.report));
+  }
   return report.passed() ? kExitOk : kExitFailed;
 }
 
@@ -72,6 +87,8 @@ void register_check_commands(CLI::App& app) {
   cmd->add_flag("--capture", a->capture, "also check the rig live through its devices (sphere, focus, LED, drift)");
   cmd->add_option("--images", a->images, "live evidence from a folder: sphere/, light/, drift/, reference/");
   cmd->add_flag("--json", a->json, "print check.json instead of the table");
+  cmd->add_option("--report", a->report,
+                  "also write an HTML report of the calibration folder and this check (as paintlab report)");
 }
 
 }  // namespace paintlab::app

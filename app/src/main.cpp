@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
   app::register_library_commands(app);
   app::register_render_commands(app);
   app::register_colour_commands(app);
+  app::register_report_commands(app);
   app::register_demo_commands(app);
 
   try {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <fmt/format.h>
 
 #include "fit_util.h"
@@ -369,13 +370,63 @@ Json RegionResidual::to_json() const {
 Json ResidualReport::to_json() const {
   Json regions_json = Json::object();
   for (int r = 0; r < kRegionCount; ++r) regions_json[to_string(static_cast<Region>(r))] = regions[r].to_json();
+  Json curves_json = Json::array();
+  for (const FitCurve& c : curves) curves_json.push_back(c.to_json());
   return {{"log_rms", total.log_rms},
           {"bins_used", total.bins},
           {"residuals", total.residuals},
           {"noise_floor_log_rms", number_or_null(total.noise_floor)},
           {"noise_source", to_string(noise_source)},
-          {"regions", regions_json}};
+          {"regions", regions_json}, {"curves", curves_json}};
 }
+
+Json FitCurve::to_json() const {
+  return {{"theta_d_deg", theta_d_deg}, {"theta_h_deg", theta_h_deg}, {"measured", measured}, {"model", model},
+          {"points", points}};
+}
+
+namespace {
+
+std::vector<FitCurve> fit_curves(const FitData& data, const std::vector<double>& model) {
+  std::vector<FitCurve> curves;
+  constexpr double kDeg = 180.0 / std::numbers::pi;
+  for (double theta_d : kCurveThetaDDeg) {
+    struct Sum {
+      double theta_h = 0, measured = 0, model = 0;
+      std::uint32_t points = 0, values = 0;
+    };
+    std::array<Sum, brdf::kMerlThetaH> sums{};
+    for (std::size_t q = 0; q < data.bins.size(); ++q) {
+      const FitBin& b = data.bins[q];
+      if (std::abs(b.coords[1] * kDeg - theta_d) > FitCurve::kCurveHalfWidthDeg) continue;
+      Sum& s = sums[static_cast<std::size_t>(brdf::merl_theta_h_index(b.coords[0]))];
+      bool used = false;
+      for (int c = 0; c < 3; ++c) {
+        if (b.inv_sigma[c] == 0.0 || !(model[3 * q + c] > 0.0)) continue;
+        s.measured += b.value[c];
+        s.model += model[3 * q + c];
+        ++s.values;
+        used = true;
+      }
+      if (!used) continue;
+      s.theta_h += b.coords[0] * kDeg;
+      ++s.points;
+    }
+    FitCurve curve;
+    curve.theta_d_deg = theta_d;
+    for (const Sum& s : sums) {
+      if (s.points == 0) continue;
+      curve.theta_h_deg.push_back(s.theta_h / s.points);
+      curve.measured.push_back(s.measured / s.values);
+      curve.model.push_back(s.model / s.values);
+      curve.points.push_back(s.points);
+    }
+    if (curve.theta_h_deg.size() >= 3) curves.push_back(std::move(curve));
+  }
+  return curves;
+}
+
+}  // namespace
 
 ResidualReport residual_report(const FitData& data, const std::vector<double>& model) {
   ResidualReport rep;
@@ -411,6 +462,7 @@ ResidualReport residual_report(const FitData& data, const std::vector<double>& m
     rep.total.log_rms = std::sqrt(sq[kRegionCount] / rep.total.residuals);
     if (data.has_statistics) rep.total.noise_floor = std::sqrt(noise[kRegionCount] / rep.total.residuals);
   }
+  rep.curves = fit_curves(data, model);
   return rep;
 }
 

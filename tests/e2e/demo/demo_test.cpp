@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "colour_accuracy.h"
+#include "report_browser.h"
 #include "paintlab/brdf/merl.h"
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/json.h"
@@ -56,10 +57,12 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
     ASSERT_TRUE(s["calibration"].contains(k)) << k;
   for (const char* k : {"calibrate", "measure", "fit", "export", "total"})
     ASSERT_TRUE(s["timings_s"].contains(k) && s["timings_s"][k].get<double>() > 0) << k;
-  for (const char* k : {"axf", "merl", "fit", "preview"}) {
+  for (const char* k : {"axf", "merl", "fit", "preview", "report"}) {
     ASSERT_TRUE(s["files"].contains(k)) << k;
     EXPECT_TRUE(fs::exists(s["files"][k].get<std::string>())) << k;
   }
+  // The demo's report in a real browser, with no network (docs/reports.md).
+  report_browser::check_demo_report(out);
 
   // The calibration on the simulated rig (half resolution) against its truth.
   const Json& c = s["calibration"];

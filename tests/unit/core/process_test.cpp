@@ -75,3 +75,16 @@ TEST(Process, ThisProgramsExecutableIsFound) {
   EXPECT_TRUE(std::filesystem::exists(exe));
   EXPECT_EQ(exe.filename(), "test_core");
 }
+
+TEST(Process, ACapturedChildGetsItsInputAndGivesBackItsOutputAndErrors) {
+  // More than a pipe's buffer each way: writing and reading must interleave.
+  std::string big(300000, 'x');
+  const ProcessOutput r = run_process_capture("sh", {"-c", "cat; echo done >&2; exit 3"}, big, 30.0);
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_EQ(r.out.size(), big.size());
+  EXPECT_EQ(r.err, "done\n");
+  EXPECT_THAT(test::error_message<IoError>([] { run_process_capture("paintlab-no-such-program", {}, ""); }),
+              HasSubstr("not found on PATH"));
+  EXPECT_THAT(test::error_message<IoError>([] { run_process_capture("sleep", {"10"}, "", 0.3); }),
+              HasSubstr("did not finish within"));
+}

@@ -178,11 +178,30 @@ struct RegionResidual {
   double noise_floor = std::numeric_limits<double>::quiet_NaN();  // NaN without statistics
   Json to_json() const;
 };
+// Measured against fitted along theta_h at one theta_d, the way Günther et al. 2005 judge a
+// fit (their Figure 5): the fit points whose mean theta_d lies within kCurveHalfWidthDeg of
+// the slice's, grouped by their MERL theta_h bin; per group the mean theta_h, and the mean
+// over the points and their used channels of the measured value and of the model's value
+// there (so both average over the same phi_d and channels). For `paintlab report`.
+struct FitCurve {
+  static constexpr double kCurveHalfWidthDeg = 2.5;
+  double theta_d_deg = 0;
+  std::vector<double> theta_h_deg;
+  std::vector<double> measured;  // 1/sr
+  std::vector<double> model;     // 1/sr
+  std::vector<std::uint32_t> points;
+  Json to_json() const;  // {"theta_d_deg", "theta_h_deg": [..], "measured": [..], "model": [..], "points": [..]}
+};
+// The theta_d of the curves a residual report carries (deg).
+inline constexpr std::array<double, 5> kCurveThetaDDeg = {5.0, 15.0, 30.0, 45.0, 60.0};
+
 struct ResidualReport {
   NoiseSource noise_source = NoiseSource::None;  // what the noise floor comes from
   RegionResidual total;
   std::array<RegionResidual, kRegionCount> regions;
-  // {"log_rms", "bins_used", "residuals", "noise_floor_log_rms", "noise_source", "regions": {...}}
+  std::vector<FitCurve> curves;  // at kCurveThetaDDeg, those with at least 3 theta_h groups
+  // {"log_rms", "bins_used", "residuals", "noise_floor_log_rms", "noise_source", "regions": {...},
+  //  "curves": [...]}
   Json to_json() const;
 };
 ResidualReport residual_report(const FitData& data, const std::vector<double>& model);

@@ -1,0 +1,35 @@
+#pragma once
+// Plots for reports, drawn by gnuplot's SVG terminal (gnuplot-nox; docs/reports.md says why
+// gnuplot): the data go to gnuplot on its standard input as inline data blocks, the SVG comes
+// back on its standard output. No temporary files, no network, no fonts outside the SVG.
+#include <string>
+#include <vector>
+
+namespace paintlab::report {
+
+struct Series {
+  std::string title;            // legend entry ("" for none)
+  std::vector<double> x, y;     // same length; non-finite points are left out
+  std::string style = "lines";  // gnuplot style: lines, points, linespoints, impulses, boxes
+  std::string colour;           // "#rrggbb", or "" for gnuplot's sequence
+  double width = 1.5;           // line width or point size
+  int point_type = 7;           // gnuplot point type (7: filled circle)
+};
+
+struct Plot {
+  std::string title;
+  std::string xlabel, ylabel;
+  bool log_y = false;
+  int width_px = 640, height_px = 380;
+  std::vector<Series> series;
+  std::vector<std::string> settings;  // further gnuplot `set` lines (e.g. "xrange [0:90]")
+};
+
+// The plot as a standalone SVG document. IoError when gnuplot is not installed or fails
+// (naming it and what it printed); DataError for a plot without a single finite point.
+std::string plot_svg(const Plot& plot);
+
+// The gnuplot script plot_svg runs (for tests and for readers who want to re-plot).
+std::string gnuplot_script(const Plot& plot);
+
+}  // namespace paintlab::report

@@ -1,0 +1,412 @@
+// The calibration section: one table of every stage's figures, then each stage's evidence
+// (docs/reports.md "Calibration").
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "paintlab/core/colour.h"
+#include "paintlab/core/image_io.h"
+#include "report_parts.h"
+
+namespace paintlab::report {
+namespace fs = std::filesystem;
+namespace {
+
+struct StageFile {
+  const char* file;
+  const char* stage;
+  const char* command;  // what makes it
+};
+constexpr StageFile kStages[] = {
+    {"camera.json", "intrinsics", "paintlab calibrate intrinsics"},
+    {"response.json", "response", "paintlab calibrate response"},
+    {"dark.json", "dark", "paintlab calibrate dark"},
+    {"flat.json", "flat", "paintlab calibrate flat"},
+    {"sphere.json", "sphere", "paintlab calibrate sphere"},
+    {"light.json", "light", "paintlab calibrate light"},
+    {"scale.json", "scale", "paintlab calibrate scale"},
+    {"colour.json", "colour", "paintlab calibrate colour"},
+};
+
+// "value ± std" with both to the same number of digits.
+std::string plus_minus(const Json* v, const Json* s) {
+  if (!v) return "—";
+  if (!s || !s->is_number()) return num_of(v, 6);
+  return num_of(v, 6) + " ± " + num_of(s, 2);
+}
+
+// The stage's headline figures for the overview table.
+std::string stage_figures(const std::string& stage, const Json& j) {
+  if (stage == "intrinsics")
+    return fmt::format("reprojection RMS {} px, worst {} px; {} views used, {} dropped",
+                       num_of(at(j, {"rms_px"})), num_of(at(j, {"worst_px"})),
+                       text_of(at(j, {"views_used"})), text_of(at(j, {"views_dropped"}), "0"));
+  if (stage == "response") {
+    return fmt::format("linearity RMS {} (relative), non-linearity {}, method {}",
+                       num_of(at(j, {"fit", "linearity_rms_rel"})), text_of(at(j, {"fit", "nonlinearity_rel"})),
+                       text_of(at(j, {"method"})));
+  }
+  if (stage == "dark")
+    return fmt::format("bias {} DN, dark current {} DN/s, read noise {} DN, {} hot pixels",
+                       num_of(at(j, {"mean_bias_dn"})), num_of(at(j, {"mean_rate_dn_per_s"})),
+                       num_of(at(j, {"read_noise_dn"})), text_of(at(j, {"hot_count"})));
+  if (stage == "flat")
+    return fmt::format("PRNU {}, corner/centre {}, {} frames", num_of(at(j, {"prnu_rel"})),
+                       num_of(at(j, {"corner_ratio"})), text_of(at(j, {"frame_count"})));
+  if (stage == "sphere")
+    return fmt::format("edge RMS {} px, worst {} px, {} of {} edges used, radius {} m", num_of(at(j, {"rms_px"})),
+                       num_of(at(j, {"max_px"})), text_of(at(j, {"edges_used"})), text_of(at(j, {"edges_total"})),
+                       num_of(at(j, {"radius_m"})));
+  if (stage == "light")
+    return fmt::format("azimuth RMS {} deg, worst {} deg, {} highlights used", num_of(at(j, {"rms_deg"})),
+                       num_of(at(j, {"max_deg"})), text_of(at(j, {"used"})));
+  if (stage == "scale")
+    return fmt::format("scale {} (spread {}, uncertainty {})", num_of(at(j, {"scale"})),
+                       num_of(at(j, {"spread_rel"})), num_of(at(j, {"uncertainty_rel"})));
+  if (stage == "colour")
+    return fmt::format("chart dE00 mean {}, max {} ({}), model {}", num_of(at(j, {"mean_de00"})),
+                       num_of(at(j, {"max_de00"})), text_of(at(j, {"worst_patch"})), text_of(at(j, {"model"})));
+  return {};
+}
+
+std::string intrinsics_part(const Json& cam) {
+  std::string s = "<h3>Camera intrinsics (camera.json)</h3>\n";
+  Table t;
+  t.id = "intrinsics";
+  t.head = {"parameter", "value ± standard deviation"};
+  const Json* K = at(cam, {"K"});
+  auto k = [&](int r, int c) -> const Json* {
+    return K && K->is_array() && K->size() == 3 && (*K)[r].is_array() && (*K)[r].size() == 3 ? &(*K)[r][c] : nullptr;
+  };
+  t.rows.push_back({"f<sub>x</sub> (px)", with_id("camera-fx", plus_minus(k(0, 0), at(cam, {"std", "fx"})))});
+  t.rows.push_back({"f<sub>y</sub> (px)", plus_minus(k(1, 1), at(cam, {"std", "fy"}))});
+  t.rows.push_back({"c<sub>x</sub> (px)", plus_minus(k(0, 2), at(cam, {"std", "cx"}))});
+  t.rows.push_back({"c<sub>y</sub> (px)", plus_minus(k(1, 2), at(cam, {"std", "cy"}))});
+  static constexpr const char* kDist[] = {"k1", "k2", "p1", "p2", "k3"};
+  const Json* dist = at(cam, {"dist"});
+  const Json* dist_std = at(cam, {"std", "dist"});
+  for (std::size_t i = 0; dist && dist->is_array() && i < dist->size() && i < 5; ++i) {
+    const Json* sd = dist_std && dist_std->is_array() && i < dist_std->size() ? &(*dist_std)[i] : nullptr;
+    t.rows.push_back({kDist[i], plus_minus(&(*dist)[i], sd)});
+  }
+  t.rows.push_back({"reprojection RMS (px)", with_id("camera-rms-px", num_of(at(cam, {"rms_px"})))});
+  t.rows.push_back({"worst corner (px)", num_of(at(cam, {"worst_px"}))});
+  t.rows.push_back({"views used / dropped",
+                    text_of(at(cam, {"views_used"})) + " / " + text_of(at(cam, {"views_dropped"}), "0")});
+  t.rows.push_back({"image size", text_of(at(cam, {"image_size"}))});
+  s += table_html(t);
+  if (const Json* note = at(cam, {"k3", "note"}))
+    s += "<p class=\"note\"><b>k3:</b> " + esc(text_of(note)) + "</p>\n";
+  // Per view: RMS and worst corner.
+  const Json* views = at(cam, {"views"});
+  if (views && views->is_array() && !views->empty()) {
+    Series rms{"RMS", {}, {}, "boxes", "#4a7fb5", 1.0};
+    Series worst{"worst corner", {}, {}, "points", "#c0392b", 2.0};
+    std::vector<std::string> dropped;
+    for (std::size_t i = 0; i < views->size(); ++i) {
+      const Json& v = (*views)[i];
+      rms.x.push_back(static_cast<double>(i));
+      rms.y.push_back(number_or_nan(at(v, {"rms_px"})));
+      worst.x.push_back(static_cast<double>(i));
+      worst.y.push_back(number_or_nan(at(v, {"max_px"})));
+      if (const Json* used = at(v, {"used"}); used && used->is_boolean() && !used->get<bool>())
+        dropped.push_back(text_of(at(v, {"name"})));
+    }
+    Plot p;
+    p.title = "Reprojection residual per view";
+    p.xlabel = "view";
+    p.ylabel = "residual (px)";
+    p.series = {rms, worst};
+    p.settings = {"boxwidth 0.7", "yrange [0:*]"};
+    s += plot_figure(p, fmt::format("Per view the RMS of the corner residuals (bars) and the worst corner (dots). "
+                                    "Overall RMS {} px. {}",
+                                    num_of(at(cam, {"rms_px"})),
+                                    dropped.empty() ? std::string("No view was dropped.")
+                                                    : "Dropped: " + esc(fmt::format("{}", fmt::join(dropped, ", ")))));
+    // Histogram of the per-view RMS.
+    std::vector<double> values;
+    for (double v : rms.y)
+      if (std::isfinite(v)) values.push_back(v);
+    if (values.size() >= 2) {
+      const auto [lo, hi] = std::minmax_element(values.begin(), values.end());
+      const int bins = std::clamp(static_cast<int>(values.size()) / 2, 4, 20);
+      const double w = std::max((*hi - *lo) / bins, 1e-9);
+      Series h{"views", {}, {}, "boxes", "#7f8c8d", 1.0};
+      std::vector<double> counts(static_cast<std::size_t>(bins), 0.0);
+      for (double v : values) counts[static_cast<std::size_t>(std::min(bins - 1, static_cast<int>((v - *lo) / w)))] += 1;
+      for (int b = 0; b < bins; ++b) {
+        h.x.push_back(*lo + (b + 0.5) * w);
+        h.y.push_back(counts[static_cast<std::size_t>(b)]);
+      }
+      Plot ph;
+      ph.title = "Histogram of the per-view RMS";
+      ph.xlabel = "RMS (px)";
+      ph.ylabel = "views";
+      ph.width_px = 480;
+      ph.height_px = 300;
+      ph.series = {h};
+      ph.settings = {fmt::format("boxwidth {:.9g}", w * 0.9), "yrange [0:*]"};
+      s += plot_figure(ph, "How the views' RMS residuals spread; a view far to the right is an outlier.");
+    }
+  }
+  return s;
+}
+
+std::string response_part(const Json& r) {
+  std::string s = "<h3>Radiometric response (response.json)</h3>\n";
+  const Json* knots = at(r, {"knots_dn"});
+  const Json* linear = at(r, {"linear"});
+  if (knots && linear && knots->is_array() && linear->is_array()) {
+    Plot p;
+    p.title = "Response curve";
+    p.xlabel = "raw value above dark (DN)";
+    p.ylabel = "linear value g(u)";
+    static constexpr const char* kColours[] = {"#c0392b", "#27ae60", "#2e86c1"};
+    static constexpr const char* kNames[] = {"R", "G", "B"};
+    const bool mono = linear->size() == 1;
+    for (std::size_t c = 0; c < linear->size() && c < 3; ++c) {
+      const Json& curve = (*linear)[c];
+      if (!curve.is_array()) continue;
+      Series d{mono ? "g(u)" : kNames[c], {}, {}, "lines", mono ? "#333333" : kColours[c], 2.0};
+      for (std::size_t i = 0; i < knots->size() && i < curve.size(); ++i) {
+        d.x.push_back(number_or_nan(&(*knots)[i]));
+        d.y.push_back(number_or_nan(&curve[i]));
+      }
+      p.series.push_back(std::move(d));
+    }
+    if (!p.series.empty())
+      s += plot_figure(p, "The recovered response per channel: the linear value a raw reading stands for.");
+  }
+  Table t;
+  t.id = "response";
+  t.head = {"figure", "value", "meaning"};
+  t.rows.push_back({"linearity RMS (relative)", with_id("response-linearity-rms", num_of(at(r, {"fit", "linearity_rms_rel"}))),
+                    "scatter of exposure-normalised values about the curve"});
+  t.rows.push_back({"linearity error (relative)", num_of(at(r, {"fit", "linearity_error_rel"})),
+                    "worst exposure-ratio error"});
+  t.rows.push_back({"non-linearity per channel", esc(text_of(at(r, {"fit", "nonlinearity_rel"}))),
+                    "largest departure of g from a straight line"});
+  t.rows.push_back({"monotonicity violation per channel", esc(text_of(at(r, {"fit", "monotonic_violation_rel"}))),
+                    "0 when the curve never decreases"});
+  t.rows.push_back({"samples used", text_of(at(r, {"fit", "samples_used"})), ""});
+  t.rows.push_back({"saturation (DN)", num_of(at(r, {"saturation_dn"})), "values above are not used"});
+  s += table_html(t);
+  return s;
+}
+
+// A map of an EXR calibration file as a false-colour picture, with its hot pixels circled.
+std::string map_part(const fs::path& exr, const char* prefer, const std::string& what, int max_px) {
+  if (!fs::exists(exr)) return "<p class=\"missing\">" + esc(exr.filename().string()) + " not found.</p>\n";
+  const ExrImage img = read_exr(exr);
+  const ImageF* plane = nullptr;
+  for (std::size_t i = 0; i < img.names.size() && !plane; ++i)
+    if (img.names[i].rfind(prefer, 0) == 0) plane = &img.planes[i];
+  for (std::size_t i = 0; i < img.names.size() && !plane; ++i)
+    if (img.names[i] != "hot") plane = &img.planes[i];
+  if (!plane) return "<p class=\"missing\">" + esc(exr.filename().string()) + " holds no map.</p>\n";
+  cv::Mat values(img.height, img.width, CV_32F, const_cast<float*>(plane->data()));
+  std::vector<float> sorted(plane->data(), plane->data() + plane->size());
+  std::erase_if(sorted, [](float v) { return !std::isfinite(v); });
+  if (sorted.empty()) return "<p class=\"missing\">" + esc(exr.filename().string()) + ": no finite value.</p>\n";
+  const auto pct = [&](double q) {
+    auto it = sorted.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(sorted.size() - 1));
+    std::nth_element(sorted.begin(), it, sorted.end());
+    return static_cast<double>(*it);
+  };
+  const double lo = pct(0.01), hi = pct(0.99);
+  cv::Mat scaled;
+  values.convertTo(scaled, CV_8U, 255.0 / std::max(hi - lo, 1e-12), -lo * 255.0 / std::max(hi - lo, 1e-12));
+  cv::Mat colour;
+  cv::applyColorMap(scaled, colour, cv::COLORMAP_VIRIDIS);
+  int hot = 0;
+  if (const ImageF* h = img.find("hot")) {
+    const int radius = std::max(3, img.width / 200);
+    for (int y = 0; y < img.height; ++y)
+      for (int x = 0; x < img.width; ++x)
+        if (h->data()[static_cast<std::size_t>(y) * img.width + x] > 0.5f) {
+          cv::circle(colour, {x, y}, radius, cv::Scalar(0, 0, 255), std::max(1, radius / 3));
+          ++hot;
+        }
+  }
+  return fmt::format("<figure>{}<figcaption>{} ({}; colour scale from the 1st to the 99th percentile, {} to {}){}"
+                     "</figcaption></figure>\n",
+                     png_img(colour, what, max_px), esc(what), esc(exr.filename().string()), num(lo), num(hi),
+                     hot ? fmt::format("; {} hot pixels circled in red", hot) : std::string());
+}
+
+std::string sphere_part(const fs::path& dir, const Json& sphere, int max_px) {
+  std::string s = "<h3>Sphere (sphere.json)</h3>\n";
+  const Json* inputs = at(sphere, {"provenance", "inputs"});
+  fs::path image;
+  if (inputs && inputs->is_array())
+    for (const Json& in : *inputs) {
+      const fs::path p = text_of(at(in, {"path"}), "");
+      const fs::path local = dir / "captures" / "sphere" / p.filename();
+      if (fs::exists(local)) image = local;
+      else if (!p.empty() && fs::exists(p)) image = p;
+      if (!image.empty()) break;
+    }
+  const Json* c = at(sphere, {"ellipse", "centre_px"});
+  const Json* ax = at(sphere, {"ellipse", "semi_axes_px"});
+  if (!image.empty() && c && ax && c->size() == 2 && ax->size() == 2) {
+    cv::Mat raw = cv::imread(image.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+    if (!raw.empty()) {
+      cv::Mat img8;
+      double lo = 0, hi = 0;
+      cv::minMaxLoc(raw, &lo, &hi);
+      raw.convertTo(img8, CV_8U, 255.0 / std::max(hi - lo, 1.0), -lo * 255.0 / std::max(hi - lo, 1.0));
+      cv::Mat bgr;
+      cv::cvtColor(img8, bgr, cv::COLOR_GRAY2BGR);
+      const cv::Point2f centre(number_or_nan(&(*c)[0]), number_or_nan(&(*c)[1]));
+      const cv::Size2f axes(number_or_nan(&(*ax)[0]), number_or_nan(&(*ax)[1]));
+      const int thick = std::max(1, bgr.cols / 400);
+      cv::ellipse(bgr, centre, axes, number_or_nan(at(sphere, {"ellipse", "angle_deg"})), 0, 360,
+                  cv::Scalar(0, 200, 255), thick, cv::LINE_AA);
+      cv::drawMarker(bgr, centre, cv::Scalar(0, 200, 255), cv::MARKER_CROSS, 12 * thick, thick);
+      s += fmt::format("<figure>{}<figcaption>The fitted silhouette (orange) on {}.</figcaption></figure>\n",
+                       png_img(bgr, "sphere fit", max_px), esc(image.filename().string()));
+    }
+  }
+  Table t;
+  t.id = "sphere";
+  t.head = {"figure", "value"};
+  t.rows.push_back({"silhouette RMS (px)", with_id("sphere-rms-px", num_of(at(sphere, {"rms_px"})))});
+  t.rows.push_back({"worst edge (px)", num_of(at(sphere, {"max_px"}))});
+  t.rows.push_back({"edges used / found", text_of(at(sphere, {"edges_used"})) + " / " + text_of(at(sphere, {"edges_total"}))});
+  t.rows.push_back({"centre (camera, m)", esc(text_of(at(sphere, {"centre_cam_m"})))});
+  t.rows.push_back({"centre standard deviation (m)", esc(text_of(at(sphere, {"centre_std_m"})))});
+  t.rows.push_back({"radius (m)", num_of(at(sphere, {"radius_m"}))});
+  s += table_html(t);
+  return s;
+}
+
+std::string light_part(const Json& light) {
+  std::string s = "<h3>Light positions (light.json)</h3>\n";
+  const Json* hl = at(light, {"highlights"});
+  std::vector<std::vector<std::string>> unused;
+  if (hl && hl->is_array()) {
+    Series err{"azimuth error", {}, {}, "linespoints", "#2e86c1", 1.5};
+    for (const Json& h : *hl) {
+      const Json* used = at(h, {"used"});
+      if (used && used->is_boolean() && used->get<bool>()) {
+        err.x.push_back(number_or_nan(at(h, {"table_angle_deg"})));
+        err.y.push_back(number_or_nan(at(h, {"azimuth_error_deg"})));
+      } else {
+        unused.push_back({num_of(at(h, {"table_angle_deg"})), esc(text_of(at(h, {"reason"}), "not used"))});
+      }
+    }
+    if (!err.x.empty()) {
+      Plot p;
+      p.title = "LED azimuth against the fitted arm";
+      p.xlabel = "table angle (deg)";
+      p.ylabel = "highlight azimuth - model (deg)";
+      p.series = {err};
+      s += plot_figure(p, fmt::format("Each used highlight's azimuth against the arm model (radius {} m, height {} m, "
+                                      "zero {} deg): RMS {} deg, worst {} deg.",
+                                      num_of(at(light, {"arm_radius_m"})), num_of(at(light, {"arm_height_m"})),
+                                      num_of(at(light, {"zero_deg"})), num_of(at(light, {"rms_deg"})),
+                                      num_of(at(light, {"max_deg"}))));
+    }
+  }
+  if (!unused.empty()) {
+    Table t;
+    t.head = {"table angle (deg)", "why not used"};
+    t.rows = std::move(unused);
+    s += "<details><summary>" + fmt::format("{} highlights not used", t.rows.size()) + "</summary>" + table_html(t) +
+         "</details>\n";
+  }
+  return s;
+}
+
+// "#rrggbb" of a CIELAB colour (D65) for a swatch; out-of-gamut values clipped.
+std::string swatch(const Json* lab) {
+  if (!lab || !lab->is_array() || lab->size() != 3) return "<span class=\"swatch\"></span>";
+  const colour::Lab l{number_or_nan(&(*lab)[0]), number_or_nan(&(*lab)[1]), number_or_nan(&(*lab)[2])};
+  const colour::Rgb rgb = colour::xyz_to_srgb(colour::lab_to_xyz(l, colour::d65()));
+  int v[3];
+  for (int c = 0; c < 3; ++c) {
+    double x = std::clamp(std::isfinite(rgb[c]) ? rgb[c] : 0.0, 0.0, 1.0);
+    x = x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+    v[c] = static_cast<int>(std::lround(x * 255.0));
+  }
+  return fmt::format("<span class=\"swatch\" style=\"background:#{:02x}{:02x}{:02x}\"></span>", v[0], v[1], v[2]);
+}
+
+std::string lab_text(const Json* lab) {
+  if (!lab || !lab->is_array() || lab->size() != 3) return "—";
+  return fmt::format("{} {} {}", num(number_or_nan(&(*lab)[0]), 4), num(number_or_nan(&(*lab)[1]), 3),
+                     num(number_or_nan(&(*lab)[2]), 3));
+}
+
+std::string colour_chart_part(const Json& c) {
+  std::string s = "<h3>Colour chart (colour.json)</h3>\n";
+  s += fmt::format("<p>{} patches used; dE00 mean <span id=\"chart-mean-de00\">{}</span>, median {}, max {} ({}). "
+                   "Model: {}; {}.</p>\n",
+                   text_of(at(c, {"patches_used"})), num_of(at(c, {"mean_de00"})), num_of(at(c, {"median_de00"})),
+                   num_of(at(c, {"max_de00"})), esc(text_of(at(c, {"worst_patch"}))), esc(text_of(at(c, {"model"}))),
+                   esc(text_of(at(c, {"space"}))));
+  const Json* patches = at(c, {"patches"});
+  if (!patches || !patches->is_array()) return s;
+  Table t;
+  t.id = "chart";
+  t.head = {"patch", "reference", "measured", "reference L* a* b*", "measured L* a* b*", "dE00", "used"};
+  for (const Json& p : *patches) {
+    const double de = number_or_nan(at(p, {"de00"}));
+    t.rows.push_back({esc(text_of(at(p, {"name"}))), swatch(at(p, {"reference_lab"})), swatch(at(p, {"fitted_lab"})),
+                      lab_text(at(p, {"reference_lab"})), lab_text(at(p, {"fitted_lab"})), num(de, 3),
+                      text_of(at(p, {"used"}))});
+    t.row_class.push_back(de > 2.0 ? "warn" : "");
+  }
+  s += table_html(t);
+  return s;
+}
+
+}  // namespace
+
+Section calibration_section(const fs::path& dir, const SectionOptions& o) {
+  Section sec{"calibration", "Calibration", {}, {}, {}};
+  std::string& s = sec.html;
+  s += "<p>Folder <code>" + esc(dir.string()) + "</code>.</p>\n";
+  Table overview;
+  overview.id = "calibration-stages";
+  overview.head = {"stage", "file", "figures", "date"};
+  std::map<std::string, Json> files;
+  for (const StageFile& f : kStages) {
+    const fs::path p = dir / f.file;
+    if (!fs::exists(p)) {
+      overview.rows.push_back({f.stage, esc(f.file), "<span class=\"missing\">missing: run <code>" + esc(f.command) +
+                                                         "</code></span>", "—"});
+      overview.row_class.push_back("missing");
+      sec.missing.push_back(fmt::format("calibration: {} not found (run {})", f.file, f.command));
+      continue;
+    }
+    Json j = read_json_file(p);
+    overview.rows.push_back({f.stage, esc(f.file), esc(stage_figures(f.stage, j)),
+                             esc(text_of(at(j, {"provenance", "date"})))});
+    overview.row_class.push_back("");
+    files[f.stage] = std::move(j);
+  }
+  s += table_html(overview);
+  if (files.count("intrinsics")) s += intrinsics_part(files["intrinsics"]);
+  if (files.count("response")) s += response_part(files["response"]);
+  if (files.count("dark") || files.count("flat")) {
+    s += "<h3>Dark and flat maps</h3>\n<div class=\"row\">";
+    if (files.count("dark"))
+      s += map_part(dir / text_of(at(files["dark"], {"maps", "file"}), "dark.exr"), "rate",
+                    "dark current (DN/s)", o.max_image_px / 2 + 20);
+    if (files.count("flat"))
+      s += map_part(dir / text_of(at(files["flat"], {"maps", "file"}), "flat.exr"), "flat", "flat field (relative gain)",
+                    o.max_image_px / 2 + 20);
+    s += "</div>\n";
+  }
+  if (files.count("sphere")) s += sphere_part(dir, files["sphere"], o.max_image_px);
+  if (files.count("light")) s += light_part(files["light"]);
+  if (files.count("colour")) s += colour_chart_part(files["colour"]);
+  return sec;
+}
+
+}  // namespace paintlab::report
