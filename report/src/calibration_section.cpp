@@ -47,7 +47,7 @@ std::string stage_figures(const std::string& stage, const Json& j) {
                        text_of(at(j, {"views_used"})), text_of(at(j, {"views_dropped"}), "0"));
   if (stage == "response") {
     return fmt::format("linearity RMS {} (relative), non-linearity {}, method {}",
-                       num_of(at(j, {"fit", "linearity_rms_rel"})), text_of(at(j, {"fit", "nonlinearity_rel"})),
+                       num_of(at(j, {"fit", "linearity_rms_rel"})), numbers_text(at(j, {"fit", "nonlinearity_rel"})),
                        text_of(at(j, {"method"})));
   }
   if (stage == "dark")
@@ -71,6 +71,128 @@ std::string stage_figures(const std::string& stage, const Json& j) {
     return fmt::format("chart dE00 mean {}, max {} ({}), model {}", num_of(at(j, {"mean_de00"})),
                        num_of(at(j, {"max_de00"})), text_of(at(j, {"worst_patch"})), text_of(at(j, {"model"})));
   return {};
+}
+
+// A histogram of `values` as boxes.
+Series histogram(const std::vector<double>& values, int bins, double& width) {
+  Series h = series("", "boxes", "#7f8c8d", 1.0);
+  const auto [lo, hi] = std::minmax_element(values.begin(), values.end());
+  width = std::max((*hi - *lo) / bins, 1e-9);
+  std::vector<double> counts(static_cast<std::size_t>(bins), 0.0);
+  for (double v : values)
+    counts[static_cast<std::size_t>(std::clamp(static_cast<int>((v - *lo) / width), 0, bins - 1))] += 1;
+  for (int b = 0; b < bins; ++b) {
+    h.x.push_back(*lo + (b + 0.5) * width);
+    h.y.push_back(counts[static_cast<std::size_t>(b)]);
+  }
+  return h;
+}
+
+// 1, 2 or 5 times a power of ten, at most x.
+double nice_below(double x) {
+  const double p = std::pow(10.0, std::floor(std::log10(x)));
+  for (double m : {5.0, 2.0, 1.0})
+    if (m * p <= x) return m * p;
+  return p;
+}
+
+// Every corner's residual vector (camera.json views[].residuals_px, from paintlab 0.1+g6938964
+// on) on the image, magnified, and the histogram of their lengths with RMS, worst and the
+// corners beyond 3 x RMS.
+std::string corner_residuals_part(const Json& cam, const Json& views) {
+  Series arrows = series("", "vectors", "#c0392b", 1.0);
+  Series dropped_arrows = series("", "vectors", "#999999", 1.0);
+  std::vector<double> lengths;
+  for (const Json& v : views) {
+    const Json* c = at(v, {"corners_px"});
+    const Json* r = at(v, {"residuals_px"});
+    if (!c || !r || !c->is_array() || !r->is_array() || c->size() != r->size()) continue;
+    const Json* used = at(v, {"used"});
+    const bool in_fit = used && used->is_boolean() && used->get<bool>();
+    Series& target = in_fit ? arrows : dropped_arrows;
+    for (std::size_t i = 0; i < c->size(); ++i) {
+      const double dx = number_or_nan(&(*r)[i][0]), dy = number_or_nan(&(*r)[i][1]);
+      target.x.push_back(number_or_nan(&(*c)[i][0]));
+      target.y.push_back(number_or_nan(&(*c)[i][1]));
+      target.dx.push_back(dx);
+      target.dy.push_back(dy);
+      if (in_fit) lengths.push_back(std::hypot(dx, dy));
+    }
+  }
+  if (lengths.size() < 4) {
+    return "<p class=\"note\">camera.json holds no per-corner residuals (written by paintlab before the report); "
+           "per-view figures only.</p>\n";
+  }
+  double ss = 0, worst = 0;
+  for (double l : lengths) {
+    ss += l * l;
+    worst = std::max(worst, l);
+  }
+  const double rms = std::sqrt(ss / static_cast<double>(lengths.size()));
+  const long beyond = std::count_if(lengths.begin(), lengths.end(), [&](double l) { return l > 3.0 * rms; });
+  const Json* size = at(cam, {"image_size"});
+  const double w = size && size->is_array() && size->size() == 2 ? number_or_nan(&(*size)[0]) : 0.0;
+  const double h = size && size->is_array() && size->size() == 2 ? number_or_nan(&(*size)[1]) : 0.0;
+  // Magnified so that an RMS residual is 2 % of the image width.
+  const double scale = nice_below(0.02 * (w > 0 ? w : 1000.0) / std::max(rms, 1e-9));
+  for (Series* s : {&arrows, &dropped_arrows})
+    for (std::size_t i = 0; i < s->dx.size(); ++i) {
+      s->dx[i] *= scale;
+      s->dy[i] *= scale;
+    }
+  Plot p;
+  p.title = "Corner residuals on the image";
+  p.xlabel = "x (px)";
+  p.ylabel = "y (px)";
+  p.width_px = 720;
+  p.height_px = w > 0 && h > 0 ? static_cast<int>(std::clamp(720.0 * h / w, 300.0, 720.0)) + 40 : 560;
+  p.series = {arrows};
+  if (!dropped_arrows.x.empty()) p.series.push_back(dropped_arrows);
+  if (w > 0 && h > 0) p.settings = {fmt::format("xrange [0:{}]", w), fmt::format("yrange [{}:0]", h), "size ratio -1"};
+  std::string s = plot_figure(
+      p, fmt::format("Each corner of every view: detected minus projected by the final camera, magnified {}x (red: "
+                     "views in the fit; grey: dropped views). A pattern (a swirl, arrows growing to the corners) "
+                     "means a distortion the model misses; random directions are noise.",
+                     num(scale)));
+  double width = 0;
+  Series hist = histogram(lengths, 30, width);
+  hist.title = "corners";
+  Plot ph;
+  ph.title = "Histogram of the corner residuals";
+  ph.xlabel = "residual (px)";
+  ph.ylabel = "corners";
+  ph.width_px = 560;
+  ph.height_px = 320;
+  ph.series = {hist};
+  ph.settings = {fmt::format("boxwidth {:.9g}", width * 0.9), "yrange [0:*]", "xrange [0:*]"};
+  s += plot_figure(ph, fmt::format("{} corners of the views in the fit: RMS <span id=\"corner-rms-px\">{}</span> px, "
+                                   "worst {} px, {} beyond 3 x RMS.",
+                                   lengths.size(), num(rms), num(worst), beyond));
+  return s;
+}
+
+// What each stage left out as outliers or unusable (its own words for them).
+std::string left_out(const std::string& stage, const Json& j) {
+  const auto count_false = [&](const char* list, const char* flag) {
+    const Json* a = at(j, {list});
+    long n = 0;
+    if (a && a->is_array())
+      for (const Json& e : *a) {
+        const Json* f = at(e, {flag});
+        n += !(f && f->is_boolean() && f->get<bool>());
+      }
+    return n;
+  };
+  if (stage == "intrinsics") return fmt::format("{} views", text_of(at(j, {"views_dropped"}), "0"));
+  if (stage == "sphere") {
+    const double total = number_or_nan(at(j, {"edges_total"})), used = number_or_nan(at(j, {"edges_used"}));
+    return std::isfinite(total - used) ? fmt::format("{} edges", total - used) : "—";
+  }
+  if (stage == "light") return fmt::format("{} highlights", count_false("highlights", "used"));
+  if (stage == "scale") return fmt::format("{} saturated pixels", text_of(at(j, {"saturated"}), "0"));
+  if (stage == "colour") return fmt::format("{} patches", count_false("patches", "used"));
+  if (stage == "dark") return fmt::format("{} hot pixels", text_of(at(j, {"hot_count"}), "0"));
+  return "—";
 }
 
 std::string intrinsics_part(const Json& cam) {
@@ -104,8 +226,8 @@ std::string intrinsics_part(const Json& cam) {
   // Per view: RMS and worst corner.
   const Json* views = at(cam, {"views"});
   if (views && views->is_array() && !views->empty()) {
-    Series rms{"RMS", {}, {}, "boxes", "#4a7fb5", 1.0};
-    Series worst{"worst corner", {}, {}, "points", "#c0392b", 2.0};
+    Series rms = series("RMS", "boxes", "#4a7fb5", 1.0);
+    Series worst = series("worst corner", "points", "#c0392b", 2.0);
     std::vector<std::string> dropped;
     for (std::size_t i = 0; i < views->size(); ++i) {
       const Json& v = (*views)[i];
@@ -121,37 +243,13 @@ std::string intrinsics_part(const Json& cam) {
     p.xlabel = "view";
     p.ylabel = "residual (px)";
     p.series = {rms, worst};
-    p.settings = {"boxwidth 0.7", "yrange [0:*]"};
+    p.settings = {"boxwidth 0.7", "yrange [0:*]", fmt::format("xrange [-1:{}]", views->size())};
     s += plot_figure(p, fmt::format("Per view the RMS of the corner residuals (bars) and the worst corner (dots). "
                                     "Overall RMS {} px. {}",
                                     num_of(at(cam, {"rms_px"})),
                                     dropped.empty() ? std::string("No view was dropped.")
                                                     : "Dropped: " + esc(fmt::format("{}", fmt::join(dropped, ", ")))));
-    // Histogram of the per-view RMS.
-    std::vector<double> values;
-    for (double v : rms.y)
-      if (std::isfinite(v)) values.push_back(v);
-    if (values.size() >= 2) {
-      const auto [lo, hi] = std::minmax_element(values.begin(), values.end());
-      const int bins = std::clamp(static_cast<int>(values.size()) / 2, 4, 20);
-      const double w = std::max((*hi - *lo) / bins, 1e-9);
-      Series h{"views", {}, {}, "boxes", "#7f8c8d", 1.0};
-      std::vector<double> counts(static_cast<std::size_t>(bins), 0.0);
-      for (double v : values) counts[static_cast<std::size_t>(std::min(bins - 1, static_cast<int>((v - *lo) / w)))] += 1;
-      for (int b = 0; b < bins; ++b) {
-        h.x.push_back(*lo + (b + 0.5) * w);
-        h.y.push_back(counts[static_cast<std::size_t>(b)]);
-      }
-      Plot ph;
-      ph.title = "Histogram of the per-view RMS";
-      ph.xlabel = "RMS (px)";
-      ph.ylabel = "views";
-      ph.width_px = 480;
-      ph.height_px = 300;
-      ph.series = {h};
-      ph.settings = {fmt::format("boxwidth {:.9g}", w * 0.9), "yrange [0:*]"};
-      s += plot_figure(ph, "How the views' RMS residuals spread; a view far to the right is an outlier.");
-    }
+    s += corner_residuals_part(cam, *views);
   }
   return s;
 }
@@ -171,7 +269,7 @@ std::string response_part(const Json& r) {
     for (std::size_t c = 0; c < linear->size() && c < 3; ++c) {
       const Json& curve = (*linear)[c];
       if (!curve.is_array()) continue;
-      Series d{mono ? "g(u)" : kNames[c], {}, {}, "lines", mono ? "#333333" : kColours[c], 2.0};
+      Series d = series(mono ? "g(u)" : kNames[c], "lines", mono ? "#333333" : kColours[c], 2.0);
       for (std::size_t i = 0; i < knots->size() && i < curve.size(); ++i) {
         d.x.push_back(number_or_nan(&(*knots)[i]));
         d.y.push_back(number_or_nan(&curve[i]));
@@ -188,9 +286,9 @@ std::string response_part(const Json& r) {
                     "scatter of exposure-normalised values about the curve"});
   t.rows.push_back({"linearity error (relative)", num_of(at(r, {"fit", "linearity_error_rel"})),
                     "worst exposure-ratio error"});
-  t.rows.push_back({"non-linearity per channel", esc(text_of(at(r, {"fit", "nonlinearity_rel"}))),
+  t.rows.push_back({"non-linearity per channel", esc(numbers_text(at(r, {"fit", "nonlinearity_rel"}))),
                     "largest departure of g from a straight line"});
-  t.rows.push_back({"monotonicity violation per channel", esc(text_of(at(r, {"fit", "monotonic_violation_rel"}))),
+  t.rows.push_back({"monotonicity violation per channel", esc(numbers_text(at(r, {"fit", "monotonic_violation_rel"}))),
                     "0 when the curve never decreases"});
   t.rows.push_back({"samples used", text_of(at(r, {"fit", "samples_used"})), ""});
   t.rows.push_back({"saturation (DN)", num_of(at(r, {"saturation_dn"})), "values above are not used"});
@@ -277,8 +375,8 @@ std::string sphere_part(const fs::path& dir, const Json& sphere, int max_px) {
   t.rows.push_back({"silhouette RMS (px)", with_id("sphere-rms-px", num_of(at(sphere, {"rms_px"})))});
   t.rows.push_back({"worst edge (px)", num_of(at(sphere, {"max_px"}))});
   t.rows.push_back({"edges used / found", text_of(at(sphere, {"edges_used"})) + " / " + text_of(at(sphere, {"edges_total"}))});
-  t.rows.push_back({"centre (camera, m)", esc(text_of(at(sphere, {"centre_cam_m"})))});
-  t.rows.push_back({"centre standard deviation (m)", esc(text_of(at(sphere, {"centre_std_m"})))});
+  t.rows.push_back({"centre (camera, m)", esc(numbers_text(at(sphere, {"centre_cam_m"}), 6))});
+  t.rows.push_back({"centre standard deviation (m)", esc(numbers_text(at(sphere, {"centre_std_m"})))});
   t.rows.push_back({"radius (m)", num_of(at(sphere, {"radius_m"}))});
   s += table_html(t);
   return s;
@@ -289,7 +387,7 @@ std::string light_part(const Json& light) {
   const Json* hl = at(light, {"highlights"});
   std::vector<std::vector<std::string>> unused;
   if (hl && hl->is_array()) {
-    Series err{"azimuth error", {}, {}, "linespoints", "#2e86c1", 1.5};
+    Series err = series("azimuth error", "linespoints", "#2e86c1", 1.5);
     for (const Json& h : *hl) {
       const Json* used = at(h, {"used"});
       if (used && used->is_boolean() && used->get<bool>()) {
@@ -373,19 +471,19 @@ Section calibration_section(const fs::path& dir, const SectionOptions& o) {
   s += "<p>Folder <code>" + esc(dir.string()) + "</code>.</p>\n";
   Table overview;
   overview.id = "calibration-stages";
-  overview.head = {"stage", "file", "figures", "date"};
+  overview.head = {"stage", "file", "figures", "left out", "date"};
   std::map<std::string, Json> files;
   for (const StageFile& f : kStages) {
     const fs::path p = dir / f.file;
     if (!fs::exists(p)) {
       overview.rows.push_back({f.stage, esc(f.file), "<span class=\"missing\">missing: run <code>" + esc(f.command) +
-                                                         "</code></span>", "—"});
+                                                         "</code></span>", "—", "—"});
       overview.row_class.push_back("missing");
       sec.missing.push_back(fmt::format("calibration: {} not found (run {})", f.file, f.command));
       continue;
     }
     Json j = read_json_file(p);
-    overview.rows.push_back({f.stage, esc(f.file), esc(stage_figures(f.stage, j)),
+    overview.rows.push_back({f.stage, esc(f.file), esc(stage_figures(f.stage, j)), esc(left_out(f.stage, j)),
                              esc(text_of(at(j, {"provenance", "date"})))});
     overview.row_class.push_back("");
     files[f.stage] = std::move(j);

@@ -116,8 +116,8 @@ std::string residual_part(const Json& fit) {
     for (std::size_t k = 0; k < curves->size(); ++k) {
       const Json& c = (*curves)[k];
       const char* colour = kColours[k % 6];
-      Series measured{fmt::format("θd {}°", num_of(at(c, {"theta_d_deg"}))), {}, {}, "points", colour, 1.4};
-      Series model{"", {}, {}, "lines", colour, 1.8};
+      Series measured = series(fmt::format("θd {}°", num_of(at(c, {"theta_d_deg"}))), "points", colour, 1.4);
+      Series model = series("", "lines", colour, 1.8);
       const Json* th = at(c, {"theta_h_deg"});
       const Json* me = at(c, {"measured"});
       const Json* mo = at(c, {"model"});

@@ -56,6 +56,15 @@ std::string text_of(const Json* j, std::string fallback) {
   return j->dump();
 }
 
+std::string numbers_text(const Json* j, int significant) {
+  if (!j || j->is_null()) return "—";
+  if (j->is_number()) return num(j->get<double>(), significant);
+  if (!j->is_array()) return text_of(j);
+  std::string s;
+  for (const Json& v : *j) s += (s.empty() ? "" : ", ") + numbers_text(&v, significant);
+  return s;
+}
+
 std::string base64(std::string_view bytes) {
   static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;

@@ -35,14 +35,23 @@ std::string gnuplot_script(const Plot& plot) {
   if (!plot.xlabel.empty()) s += "set xlabel " + quoted(plot.xlabel) + "\n";
   if (!plot.ylabel.empty()) s += "set ylabel " + quoted(plot.ylabel) + "\n";
   if (plot.log_y) s += "set logscale y\nset format y \"10^{%L}\"\n";
+  bool titled = false;
+  for (const Series& d : plot.series) titled = titled || !d.title.empty();
+  if (!titled) s += "unset key\n";
   for (const std::string& line : plot.settings) s += "set " + line + "\n";
   std::size_t finite = 0;
   for (std::size_t k = 0; k < plot.series.size(); ++k) {
     const Series& d = plot.series[k];
     s += fmt::format("$d{} << EOD\n", k);
+    const bool vectors = d.style == "vectors";
     for (std::size_t i = 0; i < d.x.size() && i < d.y.size(); ++i) {
       if (!std::isfinite(d.x[i]) || !std::isfinite(d.y[i]) || (plot.log_y && !(d.y[i] > 0.0))) continue;
-      s += fmt::format("{:.9g} {:.9g}\n", d.x[i], d.y[i]);
+      if (vectors) {
+        if (i >= d.dx.size() || i >= d.dy.size() || !std::isfinite(d.dx[i]) || !std::isfinite(d.dy[i])) continue;
+        s += fmt::format("{:.9g} {:.9g} {:.9g} {:.9g}\n", d.x[i], d.y[i], d.dx[i], d.dy[i]);
+      } else {
+        s += fmt::format("{:.9g} {:.9g}\n", d.x[i], d.y[i]);
+      }
       ++finite;
     }
     s += "EOD\n";
@@ -52,7 +61,8 @@ std::string gnuplot_script(const Plot& plot) {
   for (std::size_t k = 0; k < plot.series.size(); ++k) {
     const Series& d = plot.series[k];
     if (k) s += ", \\\n     ";
-    s += fmt::format("$d{} using 1:2 with {}", k, d.style);
+    s += d.style == "vectors" ? fmt::format("$d{} using 1:2:3:4 with vectors head size 3,20 filled", k)
+                              : fmt::format("$d{} using 1:2 with {}", k, d.style);
     const bool points = d.style == "points" || d.style == "linespoints";
     if (points) s += fmt::format(" pt {} ps {:.2g}", d.point_type, d.width * 0.4);
     if (d.style != "points") s += fmt::format(" lw {:.2g}", d.width);

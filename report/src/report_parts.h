@@ -40,6 +40,8 @@ std::string with_id(const std::string& id, const std::string& html);
 const Json* at(const Json& j, std::initializer_list<std::string_view> path);
 double number_or_nan(const Json* j);
 std::string text_of(const Json* j, std::string fallback = "—");
+// A JSON number or array of numbers as "a, b, c" to `significant` digits; "—" when absent.
+std::string numbers_text(const Json* j, int significant = 4);
 
 // --- sections ---
 struct Section {

@@ -100,11 +100,11 @@ Section measurement_section(const fs::path& dir, const SectionOptions&) {
   if (torn) sec.missing.push_back("measurement: the journal's last line is torn (an interrupted write)");
   if (journal.empty()) return sec;
   // Timeline: position against rig-clock time; a run that resumed starts its clock again.
-  Series pos{"positions", {}, {}, "points", "#2e86c1", 1.6};
-  Series resumes{"resumed", {}, {}, "impulses", "#c0392b", 2.0};
-  Series exposure{"exposures per position", {}, {}, "impulses", "#27ae60", 3.0};
-  Series took{"rig-clock time per position", {}, {}, "points", "#2e86c1", 1.4};
-  Series lower{"exposure time per position", {}, {}, "points", "#e67e22", 1.4};
+  Series pos = series("positions", "points", "#2e86c1", 1.6);
+  Series resumes = series("resumed", "impulses", "#c0392b", 2.0);
+  Series exposure = series("exposures per position", "impulses", "#27ae60", 3.0);
+  Series took = series("rig-clock time per position", "points", "#2e86c1", 1.4);
+  Series lower = series("exposure time per position", "points", "#e67e22", 1.4);
   double offset = 0.0, last_end = 0.0, total = 0.0, exposure_total = 0.0;
   int runs = 1;
   std::map<double, int> exposures_used;

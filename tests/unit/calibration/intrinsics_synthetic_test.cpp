@@ -217,6 +217,26 @@ TEST(IntrinsicsSynthetic, BentBoardViewIsDroppedWithReason) {
   EXPECT_THAT(r.views[12].reason, ::testing::HasSubstr("no chessboard"));
   EXPECT_LT(r.rms_px, 0.08);
   EXPECT_THAT(r.camera.fx(), test::NearRel(sc.camera.fx(), 0.002));
+  // Each corner's residual (for the report's residual plots), of the views in the fit and of
+  // the dropped bent one (against its own pose): they give back each view's RMS and worst
+  // corner; camera.json keeps them with the corners.
+  for (int v : {0, 4}) {
+    const auto& res = r.views[static_cast<std::size_t>(v)].residuals_px;
+    ASSERT_EQ(res.size(), static_cast<std::size_t>(sc.board.corner_count()));
+    double ss = 0, worst = 0;
+    for (const Vec2& e : res) {
+      ss += e.squaredNorm();
+      worst = std::max(worst, e.norm());
+    }
+    EXPECT_NEAR(std::sqrt(ss / res.size()), r.views[static_cast<std::size_t>(v)].rms_px, 1e-9) << v;
+    EXPECT_NEAR(worst, r.views[static_cast<std::size_t>(v)].max_px, 1e-9) << v;
+  }
+  EXPECT_TRUE(r.views[12].residuals_px.empty());
+  const Json j = r.to_json();
+  ASSERT_EQ(j["views"][0]["residuals_px"].size(), r.views[0].residuals_px.size());
+  EXPECT_NEAR(j["views"][0]["residuals_px"][3][1].get<double>(), r.views[0].residuals_px[3].y(), 1e-4);
+  EXPECT_NEAR(j["views"][0]["corners_px"][3][0].get<double>(), r.views[0].corners_px[3].x(), 1e-4);
+  EXPECT_FALSE(j["views"][12].contains("residuals_px"));
 }
 
 TEST(IntrinsicsSynthetic, TooFewViewsNamesTheDroppedOnes) {

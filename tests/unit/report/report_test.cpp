@@ -63,9 +63,13 @@ Json fit_json(bool converged) {
 void write_calibration(const fs::path& dir) {
   fs::create_directories(dir);
   Json views = Json::array();
+  // Each view's corners with residuals of 0.03 px and one of 0.04 px (so RMS over the used
+  // views' 5 x 4 corners: sqrt((5 x 3 x 0.03^2 + 5 x 0.04^2) / 20)).
   for (int i = 0; i < 6; ++i)
     views.push_back({{"name", "view0" + std::to_string(i)}, {"rms_px", 0.01 + 0.002 * i}, {"max_px", 0.03 + 0.004 * i},
-                     {"used", i != 5}});
+                     {"used", i != 5},
+                     {"corners_px", {{100, 100}, {200, 100}, {100, 200}, {200, 200}}},
+                     {"residuals_px", {{0.03, 0.0}, {0.0, -0.03}, {-0.03, 0.0}, {0.0, 0.04}}}});
   write_json_file(dir / "camera.json", {{"K", {{3889.65, 0.0, 342.9}, {0.0, 3888.68, 256.18}, {0.0, 0.0, 1.0}}},
                                         {"dist", {-0.2066, 0.4357, 0.00068, -0.00023, 0.0}},
                                         {"std", {{"fx", 2.228}, {"fy", 2.123}, {"cx", 4.25}, {"cy", 2.99}, {"dist", {0.01, 0.2, 1e-4, 1e-4, 0.0}}}},
@@ -195,6 +199,8 @@ TEST(Report, ACalibrationFolderWithAFailedCheckListsTheFailureFirstAndWhatIsMiss
   EXPECT_EQ(r.missing.size(), 7u);
   EXPECT_THAT(r.html, HasSubstr("missing: run <code>paintlab calibrate light</code>"));
   EXPECT_THAT(r.html, HasSubstr("Dropped: view05"));
+  // The corner residuals of the views in the fit (the dropped view's are drawn, not counted).
+  EXPECT_NEAR(std::stod(element_text(r.html, "corner-rms-px")), std::sqrt((15 * 0.0009 + 5 * 0.0016) / 20.0), 1e-4);
 }
 
 TEST(Report, AnIncompleteSessionSaysHowManyPositionsAreMissingAndHowToResume) {

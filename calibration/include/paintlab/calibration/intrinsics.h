@@ -70,6 +70,9 @@ struct ViewReport {
   double contrast = 0.0;
   int fallback_corners = 0;
   std::vector<Vec2> corners_px;
+  // Per corner: the detected position minus the final camera's projection (camera.json
+  // "residuals_px", for the residual plots of `paintlab report`); empty when not detected.
+  std::vector<Vec2> residuals_px;
   Rigid3 cam_from_board;   // pose of the board (valid when detected)
 };
 

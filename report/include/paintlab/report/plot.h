@@ -14,7 +14,18 @@ struct Series {
   std::string colour;           // "#rrggbb", or "" for gnuplot's sequence
   double width = 1.5;           // line width or point size
   int point_type = 7;           // gnuplot point type (7: filled circle)
+  std::vector<double> dx, dy;   // style "vectors": arrows from (x, y) by (dx, dy)
 };
+
+// A series without data yet.
+inline Series series(std::string title, std::string style, std::string colour, double width) {
+  Series s;
+  s.title = std::move(title);
+  s.style = std::move(style);
+  s.colour = std::move(colour);
+  s.width = width;
+  return s;
+}
 
 struct Plot {
   std::string title;
