@@ -372,12 +372,16 @@ Json ResidualReport::to_json() const {
   for (int r = 0; r < kRegionCount; ++r) regions_json[to_string(static_cast<Region>(r))] = regions[r].to_json();
   Json curves_json = Json::array();
   for (const FitCurve& c : curves) curves_json.push_back(c.to_json());
+  Json cells = Json::array();
+  for (std::size_t k = 0; k < coverage.size(); ++k)
+    if (coverage[k] > 0) cells.push_back({k / brdf::kMerlThetaD, k % brdf::kMerlThetaD, coverage[k]});
+  Json coverage_json = {{"theta_h_bins", brdf::kMerlThetaH}, {"theta_d_bins", brdf::kMerlThetaD}, {"cells", cells}};
   return {{"log_rms", total.log_rms},
           {"bins_used", total.bins},
           {"residuals", total.residuals},
           {"noise_floor_log_rms", number_or_null(total.noise_floor)},
           {"noise_source", to_string(noise_source)},
-          {"regions", regions_json}, {"curves", curves_json}};
+          {"regions", regions_json}, {"curves", curves_json}, {"coverage", coverage_json}};
 }
 
 Json FitCurve::to_json() const {
@@ -463,6 +467,12 @@ ResidualReport residual_report(const FitData& data, const std::vector<double>& m
     if (data.has_statistics) rep.total.noise_floor = std::sqrt(noise[kRegionCount] / rep.total.residuals);
   }
   rep.curves = fit_curves(data, model);
+  rep.coverage.assign(static_cast<std::size_t>(brdf::kMerlThetaH) * brdf::kMerlThetaD, 0);
+  for (const FitBin& b : data.bins) {
+    const auto i = static_cast<std::size_t>(brdf::merl_theta_h_index(b.coords[0]));
+    const auto j = static_cast<std::size_t>(brdf::merl_theta_d_index(b.coords[1]));
+    rep.coverage[i * brdf::kMerlThetaD + j] += std::max<std::uint32_t>(b.count, 1);
+  }
   return rep;
 }
 

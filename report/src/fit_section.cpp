@@ -139,6 +139,44 @@ std::string residual_part(const Json& fit) {
   return s;
 }
 
+// The fit's samples in the (theta_h, theta_d) plane (fit.json residual.coverage), on MERL's
+// bins: theta_h on its square-root axis, as the table stores it.
+std::string coverage_part(const Json& fit) {
+  const Json* cells = at(fit, {"residual", "coverage", "cells"});
+  if (!cells || !cells->is_array() || cells->empty()) return {};
+  std::vector<double> grid(90 * 90, std::nan(""));
+  long covered = 0;
+  for (const Json& c : *cells) {
+    if (!c.is_array() || c.size() != 3) continue;
+    const int i = c[0].get<int>(), j = c[1].get<int>();
+    if (i < 0 || i >= 90 || j < 0 || j >= 90) continue;
+    grid[static_cast<std::size_t>(i * 90 + j)] = std::log10(std::max(1.0, c[2].get<double>()));
+    ++covered;
+  }
+  Series map = series("", "image", "", 1.0);
+  for (int i = 0; i < 90; ++i)
+    for (int j = 0; j < 90; ++j) {
+      map.x.push_back(i);
+      map.y.push_back(j);
+      map.z.push_back(grid[static_cast<std::size_t>(i * 90 + j)]);
+    }
+  Plot p;
+  p.title = "Half-vector coverage: samples per (θh, θd) bin";
+  p.xlabel = "θh (deg; MERL bins, square-root axis)";
+  p.ylabel = "θd (deg)";
+  p.width_px = 640;
+  p.height_px = 520;
+  p.series = {map};
+  std::string tics = "xtics (";
+  for (double d : {0.0, 1.0, 4.0, 10.0, 20.0, 40.0, 60.0, 90.0})
+    tics += fmt::format("{}\"{}\" {:.3f}", d > 0 ? ", " : "", d, std::sqrt(d / 90.0) * 90.0 - 0.5);
+  p.settings = {tics + ")", "xrange [-0.5:89.5]", "yrange [-0.5:89.5]", "cblabel \"log10 samples\"",
+                "palette defined (0 \"#f7fbff\", 1 \"#6baed6\", 2 \"#08306b\")", "size ratio 1"};
+  return plot_figure(p, fmt::format("Where the fit has measured data: {} of the 8100 (θh, θd) bins (summed over φd; "
+                                    "white: none). The sweep's light circle fixes which θd each θh is seen at.",
+                                    covered));
+}
+
 std::string extraction_part(const Json& fit) {
   const Json* ex = at(fit, {"input", "extraction"});
   if (!ex || !ex->is_object()) return {};
@@ -177,6 +215,7 @@ Section fit_section(const fs::path& fit_json, const std::vector<fs::path>& image
   s += convergence_part(fit, sec);
   s += parameters_part(fit);
   s += residual_part(fit);
+  s += coverage_part(fit);
   s += extraction_part(fit);
   std::string pictures;
   for (const fs::path& img : images) {

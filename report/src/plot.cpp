@@ -44,9 +44,14 @@ std::string gnuplot_script(const Plot& plot) {
     const Series& d = plot.series[k];
     s += fmt::format("$d{} << EOD\n", k);
     const bool vectors = d.style == "vectors";
+    const bool image = d.style == "image";
     for (std::size_t i = 0; i < d.x.size() && i < d.y.size(); ++i) {
       if (!std::isfinite(d.x[i]) || !std::isfinite(d.y[i]) || (plot.log_y && !(d.y[i] > 0.0))) continue;
-      if (vectors) {
+      if (image) {
+        if (i >= d.z.size()) continue;
+        s += std::isfinite(d.z[i]) ? fmt::format("{:.9g} {:.9g} {:.6g}\n", d.x[i], d.y[i], d.z[i])
+                                   : fmt::format("{:.9g} {:.9g} NaN\n", d.x[i], d.y[i]);
+      } else if (vectors) {
         if (i >= d.dx.size() || i >= d.dy.size() || !std::isfinite(d.dx[i]) || !std::isfinite(d.dy[i])) continue;
         s += fmt::format("{:.9g} {:.9g} {:.9g} {:.9g}\n", d.x[i], d.y[i], d.dx[i], d.dy[i]);
       } else {
@@ -61,12 +66,13 @@ std::string gnuplot_script(const Plot& plot) {
   for (std::size_t k = 0; k < plot.series.size(); ++k) {
     const Series& d = plot.series[k];
     if (k) s += ", \\\n     ";
-    s += d.style == "vectors" ? fmt::format("$d{} using 1:2:3:4 with vectors head size 3,20 filled", k)
-                              : fmt::format("$d{} using 1:2 with {}", k, d.style);
+    if (d.style == "vectors") s += fmt::format("$d{} using 1:2:3:4 with vectors head size 3,20 filled", k);
+    else if (d.style == "image") s += fmt::format("$d{} using 1:2:3 with image", k);
+    else s += fmt::format("$d{} using 1:2 with {}", k, d.style);
     const bool points = d.style == "points" || d.style == "linespoints";
     if (points) s += fmt::format(" pt {} ps {:.2g}", d.point_type, d.width * 0.4);
-    if (d.style != "points") s += fmt::format(" lw {:.2g}", d.width);
-    if (!d.colour.empty()) s += " lc rgb " + quoted(d.colour);
+    if (d.style != "points" && d.style != "image") s += fmt::format(" lw {:.2g}", d.width);
+    if (!d.colour.empty() && d.style != "image") s += " lc rgb " + quoted(d.colour);
     if (d.style == "boxes") s += " fs solid 0.6";
     s += d.title.empty() ? " notitle" : " title " + quoted(d.title);
   }

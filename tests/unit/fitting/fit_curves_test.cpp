@@ -58,7 +58,20 @@ TEST(FitCurves, PointsNearEachThetaDAreAveragedPerThetaHBinOverTheirUsedChannels
   EXPECT_DOUBLE_EQ(c.measured[3], 1.0);
   EXPECT_DOUBLE_EQ(c.model[3], 0.5);
   EXPECT_NEAR(c.theta_h_deg[3], 40.0, 1e-9);
+  // The coverage map: every point's samples in its (theta_h, theta_d) cell (no statistics
+  // here: 1 a point); the first group's two points lie in two theta_d bins.
+  ASSERT_EQ(r.coverage.size(), 90u * 90u);
+  std::uint32_t total = 0;
+  for (std::uint32_t c : r.coverage) total += c;
+  EXPECT_EQ(total, data.bins.size());
+  const auto cell = [](double th, double td) {
+    return static_cast<std::size_t>(brdf::merl_theta_h_index(th * kRad)) * 90 +
+           static_cast<std::size_t>(brdf::merl_theta_d_index(td * kRad));
+  };
+  EXPECT_EQ(r.coverage[cell(1.0, 29.0)] + r.coverage[cell(1.01, 31.0)], 2u);
+  EXPECT_EQ(r.coverage[cell(40.0, 30.0)], 1u);
   const Json j = r.to_json();
+  EXPECT_EQ(j.at("coverage").at("cells").size(), 8u);  // the 9 points in 8 cells
   ASSERT_EQ(j.at("curves").size(), 1u);
   EXPECT_EQ(j["curves"][0]["theta_h_deg"].size(), 4u);
 }

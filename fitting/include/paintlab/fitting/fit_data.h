@@ -200,8 +200,13 @@ struct ResidualReport {
   RegionResidual total;
   std::array<RegionResidual, kRegionCount> regions;
   std::vector<FitCurve> curves;  // at kCurveThetaDDeg, those with at least 3 theta_h groups
+  // Where the fit has data in the (theta_h, theta_d) plane: samples per MERL theta_h bin x
+  // theta_d bin over every phi_d (a fit point's samples at its mean coordinates; points
+  // without statistics count 1), theta_h-major; all zero for an empty fit.
+  std::vector<std::uint32_t> coverage;
   // {"log_rms", "bins_used", "residuals", "noise_floor_log_rms", "noise_source", "regions": {...},
-  //  "curves": [...]}
+  //  "curves": [...], "coverage": {"theta_h_bins": 90, "theta_d_bins": 90, "cells": [[i, j, samples], ...]}}
+  //  (coverage: the non-zero cells only)
   Json to_json() const;
 };
 ResidualReport residual_report(const FitData& data, const std::vector<double>& model);

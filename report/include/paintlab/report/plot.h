@@ -15,6 +15,7 @@ struct Series {
   double width = 1.5;           // line width or point size
   int point_type = 7;           // gnuplot point type (7: filled circle)
   std::vector<double> dx, dy;   // style "vectors": arrows from (x, y) by (dx, dy)
+  std::vector<double> z;        // style "image": a value per (x, y) on a regular grid (NaN: no value)
 };
 
 // A series without data yet.
