@@ -32,24 +32,43 @@ seed_files() {  # the project's own files of each kind
     *) ;;
   esac
 }
-status=0
-for h in "${harnesses[@]}"; do
-  corpus="$BUILD/corpus/$h" findings="$BUILD/findings/$h"
+# One harness: its corpus seeded, then libFuzzer for $seconds s; what it found (or its stats)
+# goes to $BUILD/fuzz_$h.summary, its exit status is the harness's.
+run_one() {
+  local h=$1 corpus="$BUILD/corpus/$1" findings="$BUILD/findings/$1"
   mkdir -p "$corpus" "$findings"
   [ -d "tests/fuzz/seeds/$h" ] && cp -n tests/fuzz/seeds/"$h"/* "$corpus"/ 2>/dev/null || true
   for f in $(seed_files "$h"); do cp -n "$f" "$corpus"/; done
-  echo "== fuzz_$h: ${seconds} s on $(ls "$corpus" | wc -l) inputs =="
-  # detect_leaks: a leak is a finding (tests/fuzz/lsan.supp: the third-party ones, with why). -malloc_limit_mb bounds one allocation, -rss_limit_mb the process (ASan keeps freed memory);
-  # -timeout: an input that takes over 10 s is a hang.
-  if ! ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-       "$BUILD/tests/fuzz/fuzz_$h" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -malloc_limit_mb=2048 \
-       -print_final_stats=1 -artifact_prefix="$findings/" ${PAINTLAB_FUZZ_ARGS:-} "$corpus" 2>"$BUILD/fuzz_$h.log"; then
-    echo "fuzz_$h: FOUND A PROBLEM (input in $findings/); the end of its log:"
-    tail -40 "$BUILD/fuzz_$h.log"
-    status=1
-  else
+  {
+    echo "== fuzz_$h: ${seconds} s on $(ls "$corpus" | wc -l) inputs =="
+    # detect_leaks: a leak is a finding (tests/fuzz/lsan.supp: the third-party ones, with why). -malloc_limit_mb bounds one allocation, -rss_limit_mb the process (ASan keeps freed memory);
+    # -timeout: an input that takes over 10 s is a hang.
+    if ! ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+         "$BUILD/tests/fuzz/fuzz_$h" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -malloc_limit_mb=2048 \
+         -print_final_stats=1 -artifact_prefix="$findings/" ${PAINTLAB_FUZZ_ARGS:-} "$corpus" 2>"$BUILD/fuzz_$h.log"; then
+      echo "fuzz_$h: FOUND A PROBLEM (input in $findings/); the end of its log:"
+      tail -40 "$BUILD/fuzz_$h.log"
+      return 1
+    fi
     grep -E 'stat::number_of_executed_units|stat::peak_rss_mb' "$BUILD/fuzz_$h.log" | tr '\n' ' '
     echo
-  fi
+  } >"$BUILD/fuzz_$h.summary" 2>&1
+}
+
+# The harnesses run side by side, PAINTLAB_FUZZ_JOBS at a time (default: one a core; libFuzzer
+# uses one core), so each still gets its full $seconds; their summaries print in order.
+jobs_max=${PAINTLAB_FUZZ_JOBS:-$(nproc)}
+pids=()
+for h in "${harnesses[@]}"; do
+  while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do sleep 1; done
+  rm -f "$BUILD/fuzz_$h.status"
+  ( if run_one "$h"; then echo 0; else echo 1; fi >"$BUILD/fuzz_$h.status" ) &
+  pids+=($!)
+done
+wait "${pids[@]}" || true
+status=0
+for h in "${harnesses[@]}"; do
+  cat "$BUILD/fuzz_$h.summary" 2>/dev/null || echo "fuzz_$h: no summary (the run did not finish)"
+  [ "$(cat "$BUILD/fuzz_$h.status" 2>/dev/null)" = 0 ] || status=1
 done
 exit $status
