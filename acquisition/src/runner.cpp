@@ -122,6 +122,30 @@ std::string RunSummary::describe(const fs::path& session_dir) const {
   return s + "resume with: paintlab measure --resume " + session_dir.string() + "\n";
 }
 
+Json RunSummary::to_json() const {
+  return {{"utc_end", utc_timestamp()},
+          {"positions", positions},
+          {"finished_before", finished_before},
+          {"measured", measured},
+          {"complete", complete},
+          {"interrupted", interrupted},
+          {"device_fault", device_fault},
+          {"stop_reason", stop_reason},
+          {"resume_findings", resume_findings},
+          {"sweep_s", sweep_s},
+          {"physical_min_s", physical_min_s()},
+          {"motion_s", motion_s},
+          {"settle_s", settle_s},
+          {"exposure_s", exposure_s},
+          {"readout_s", readout_s},
+          {"wheel_s", wheel_s},
+          {"wall_s", wall_s},
+          {"frames", frames},
+          {"retries", retries},
+          {"skipped_frames", skipped_frames},
+          {"skipped_s", skipped_s}};
+}
+
 RunSummary Runner::run(const std::atomic<bool>& stop) {
   const auto wall_start = std::chrono::steady_clock::now();
   const SessionManifest& plan = session_.manifest();
@@ -401,6 +425,13 @@ RunSummary Runner::run(const std::atomic<bool>& stop) {
   summary.complete = finished.load() == summary.positions;
   if (progress_) progress_->update(finished.load());
   summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  // The run's record. Its loss (a full disk now) loses no measurement: the journal and the
+  // images are written; so it is a warning, not an error that would hide the run's outcome.
+  try {
+    append_jsonl_line(session_.dir() / kRunsFile, summary.to_json());
+  } catch (const Error& e) {
+    spdlog::warn("{}: the run's record was not written: {}", kRunsFile, e.what());
+  }
   return summary;
 }
 

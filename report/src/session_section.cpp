@@ -64,6 +64,51 @@ Section check_section(const fs::path& check_json, const SectionOptions&) {
   return sec;
 }
 
+namespace {
+
+// The runs of a session (runs.jsonl, one line a `paintlab measure` run): what each measured,
+// how it ended, its sweep against the physical minimum, retries.
+std::string runs_part(const fs::path& dir) {
+  const fs::path file = dir / "runs.jsonl";
+  if (!fs::exists(file))
+    return "<p class=\"note\">No runs.jsonl (a session measured before paintlab recorded its runs): the timeline "
+           "below is from the journal alone.</p>\n";
+  bool torn = false;
+  const std::vector<Json> runs = read_jsonl_file(file, &torn);
+  Table t;
+  t.id = "runs";
+  t.head = {"run", "ended (UTC)", "positions measured", "outcome", "sweep (rig clock)", "physical minimum",
+            "sweep / minimum", "frames", "retries"};
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const Json& r = runs[k];
+    const auto flag = [&](const char* key) {
+      const Json* v = at(r, {key});
+      return v && v->is_boolean() && v->get<bool>();
+    };
+    std::string outcome = flag("complete") ? "complete" : flag("interrupted") ? "stopped (Ctrl-C)"
+                                                      : flag("device_fault") ? "device fault"
+                                                                              : "stopped";
+    const std::string reason = text_of(at(r, {"stop_reason"}), "");
+    if (!reason.empty()) outcome += ": " + reason;
+    if (const Json* f = at(r, {"resume_findings"}); f && f->is_array() && !f->empty())
+      outcome += fmt::format(" (resume found: {})", numbers_text(f));
+    const double sweep = number_or_nan(at(r, {"sweep_s"})), minimum = number_or_nan(at(r, {"physical_min_s"}));
+    t.rows.push_back({std::to_string(k + 1), esc(text_of(at(r, {"utc_end"}))),
+                      fmt::format("{} (of {}; {} before)", text_of(at(r, {"measured"})), text_of(at(r, {"positions"})),
+                                  text_of(at(r, {"finished_before"}))),
+                      esc(outcome), num(sweep) + " s", num(minimum) + " s", with_id(fmt::format("run{}-ratio", k + 1), num(sweep / minimum, 4)),
+                      text_of(at(r, {"frames"})), text_of(at(r, {"retries"}))});
+    t.row_class.push_back(flag("complete") ? "" : "warn");
+  }
+  return "<h3>Runs</h3>\n" + table_html(t) +
+         "<p class=\"note\">Physical minimum: the table's motion profile, the settle waits, the exposures, the "
+         "readouts and the filter wheel's moves, on the rig clock; sweep / minimum near 1 means the software adds "
+         "almost nothing.</p>\n" +
+         (torn ? "<p class=\"missing\">runs.jsonl ends in a torn line.</p>\n" : "");
+}
+
+}  // namespace
+
 Section measurement_section(const fs::path& dir, const SectionOptions&) {
   Section sec{"measurement", "Measurement", {}, {}, {}};
   std::string& s = sec.html;
@@ -98,6 +143,7 @@ Section measurement_section(const fs::path& dir, const SectionOptions&) {
                            : std::string());
   if (missing) sec.missing.push_back(fmt::format("measurement: {} of {} light positions missing", missing, planned.size()));
   if (torn) sec.missing.push_back("measurement: the journal's last line is torn (an interrupted write)");
+  s += runs_part(dir);
   if (journal.empty()) return sec;
   // Timeline: position against rig-clock time; a run that resumed starts its clock again.
   Series pos = series("positions", "points", "#2e86c1", 1.6);

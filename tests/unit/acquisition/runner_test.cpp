@@ -154,6 +154,17 @@ TEST(Runner, InterruptStopsSafelyAndResumeCompletes) {
   EXPECT_THAT(said, HasSubstr("positions: 7 of 7 finished (4 in this run, 3 before)\n"));
   EXPECT_THAT(said, HasSubstr("session complete: " + s.dir().string() + "\n"));
   EXPECT_THAT(said, ::testing::Not(HasSubstr("resume with")));
+  // Each run left its record in runs.jsonl (what paintlab report draws): the interrupted one,
+  // then the one that completed, with the sweep against its physical minimum.
+  const std::vector<Json> runs = read_jsonl_file(s.dir() / kRunsFile);
+  ASSERT_EQ(runs.size(), 2u);
+  EXPECT_EQ(runs[0].at("interrupted"), true);
+  EXPECT_EQ(runs[0].at("measured"), 3);
+  EXPECT_EQ(runs[1].at("complete"), true);
+  EXPECT_EQ(runs[1].at("finished_before"), 3);
+  EXPECT_NEAR(runs[1].at("physical_min_s").get<double>(), sum2.physical_min_s(), 1e-9);
+  EXPECT_NEAR(runs[1].at("sweep_s").get<double>(), sum2.sweep_s, 1e-9);
+  EXPECT_FALSE(runs[1].at("utc_end").get<std::string>().empty());
 }
 
 TEST(Runner, RetryableCameraFaultIsRetried) {

@@ -220,10 +220,25 @@ TEST(Report, AnIncompleteSessionSaysHowManyPositionsAreMissingAndHowToResume) {
                    .dump() +
                "\n";
   write_file_atomic(s / "journal.jsonl", journal);
+  // The runs as `paintlab measure` records them: one stopped by Ctrl-C, one after a retry.
+  write_file_atomic(s / "runs.jsonl",
+                    Json{{"utc_end", "2026-12-06T01:43:00Z"}, {"positions", 5}, {"finished_before", 0}, {"measured", 2},
+                         {"complete", false}, {"interrupted", true}, {"stop_reason", ""}, {"sweep_s", 2.3},
+                         {"physical_min_s", 2.2}, {"frames", 4}, {"retries", 0}}
+                            .dump() +
+                        "\n" +
+                        Json{{"utc_end", "2026-12-06T01:44:00Z"}, {"positions", 5}, {"finished_before", 2}, {"measured", 1},
+                             {"complete", false}, {"device_fault", true}, {"stop_reason", "camera: no frame"},
+                             {"sweep_s", 1.25}, {"physical_min_s", 1.0}, {"frames", 2}, {"retries", 3}}
+                            .dump() +
+                        "\n");
   const report::Report r = report::make_report(report::classify_input(s));
   EXPECT_THAT(element_text(r.html, "session-positions"), HasSubstr("3 of 5 light positions finished; 2 missing"));
   EXPECT_THAT(r.html, HasSubstr("paintlab measure --resume"));
   EXPECT_THAT(r.html, HasSubstr("2 runs"));
+  EXPECT_THAT(element_text(r.html, "run2-ratio"), HasSubstr("1.25"));
+  EXPECT_THAT(r.html, HasSubstr("device fault: camera: no frame"));
+  EXPECT_THAT(r.html, HasSubstr("stopped (Ctrl-C)"));
   ASSERT_FALSE(r.missing.empty());
   EXPECT_THAT(r.missing[0], HasSubstr("2 of 5 light positions missing"));
 }

@@ -15,6 +15,7 @@
 #include "paintlab/acquisition/session.h"
 #include "paintlab/core/clock.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/core/json.h"
 #include "paintlab/devices/camera.h"
 #include "paintlab/devices/filter_wheel.h"
 #include "paintlab/devices/light.h"
@@ -97,7 +98,13 @@ struct RunSummary {
   // sweep time against its physical minimum, frames and retries, adaptive savings, then
   // "session complete: DIR" or how it stopped and the command that resumes it.
   std::string describe(const std::filesystem::path& session_dir) const;
+  // One line of the session's runs.jsonl: the figures above, the physical minimum, and when
+  // the run ended (UTC). `paintlab report` draws the runs from it.
+  Json to_json() const;
 };
+// The session's record of its runs: one JSON line a run, appended when the run ends (complete,
+// stopped or faulted). The journal stays the record of what was measured.
+inline constexpr const char* kRunsFile = "runs.jsonl";
 
 class Runner {
  public:
