@@ -278,6 +278,34 @@ std::string response_part(const Json& r) {
     }
     if (!p.series.empty())
       s += plot_figure(p, "The recovered response per channel: the linear value a raw reading stands for.");
+    // The data about the curve: the scatter of the samples' exposure-normalised values at each
+    // knot (response.json residual_std), relative to the curve there.
+    const Json* scatter = at(r, {"residual_std"});
+    if (scatter && scatter->is_array()) {
+      Plot q;
+      q.title = "Scatter of the data about the curve";
+      q.xlabel = "raw value above dark (DN)";
+      q.ylabel = "residual standard deviation / g(u)";
+      q.log_y = true;
+      q.width_px = 640;
+      q.height_px = 320;
+      for (std::size_t c = 0; c < scatter->size() && c < linear->size() && c < 3; ++c) {
+        const Json& sd = (*scatter)[c];
+        const Json& curve = (*linear)[c];
+        if (!sd.is_array() || !curve.is_array()) continue;
+        Series d = series(mono ? "samples" : kNames[c], "points", mono ? "#333333" : kColours[c], 1.0);
+        for (std::size_t i = 0; i < knots->size() && i < sd.size() && i < curve.size(); ++i) {
+          const double g = number_or_nan(&curve[i]);
+          d.x.push_back(number_or_nan(&(*knots)[i]));
+          d.y.push_back(g > 0 ? number_or_nan(&sd[i]) / g : std::nan(""));
+        }
+        q.series.push_back(std::move(d));
+      }
+      if (!q.series.empty())
+        s += plot_figure(q, "What the measured samples say about the curve: at each knot the standard deviation of "
+                            "the samples' exposure-normalised values, relative to the curve (shot and read noise "
+                            "dominate at low values; a bump is where the curve misfits).");
+    }
   }
   Table t;
   t.id = "response";
