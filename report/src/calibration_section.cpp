@@ -213,7 +213,11 @@ std::string intrinsics_part(const Json& cam) {
   const Json* dist_std = at(cam, {"std", "dist"});
   for (std::size_t i = 0; dist && dist->is_array() && i < dist->size() && i < 5; ++i) {
     const Json* sd = dist_std && dist_std->is_array() && i < dist_std->size() ? &(*dist_std)[i] : nullptr;
-    t.rows.push_back({kDist[i], plus_minus(&(*dist)[i], sd)});
+    const Json* fixed = at(cam, {"k3", "fixed"});
+    if (i == 4 && fixed && fixed->is_boolean() && fixed->get<bool>())
+      t.rows.push_back({kDist[i], num_of(&(*dist)[i]) + " (fixed)"});
+    else
+      t.rows.push_back({kDist[i], plus_minus(&(*dist)[i], sd)});
   }
   t.rows.push_back({"reprojection RMS (px)", with_id("camera-rms-px", num_of(at(cam, {"rms_px"})))});
   t.rows.push_back({"worst corner (px)", num_of(at(cam, {"worst_px"}))});

@@ -109,7 +109,10 @@ Section provenance_section(const ReportInput& in) {
         std::string now = fs::exists(now_file) ? sha256_file(now_file) : "missing";
         // session.json may record a shortened digest: compare its length.
         const bool same = now.size() >= then.size() && now.compare(0, then.size(), then) == 0;
-        c.rows.push_back({esc(file), "<code>" + esc(then) + "</code>", "<code>" + esc(now.substr(0, then.size())) + "</code>",
+        // The first 16 hex digits are enough to tell files apart on the page (the full ones are above).
+        const auto short_hex = [](const std::string& h) { return h.size() > 16 ? h.substr(0, 16) + "…" : h; };
+        c.rows.push_back({esc(file), "<code>" + esc(short_hex(then)) + "</code>",
+                          "<code>" + esc(short_hex(now.substr(0, then.size()))) + "</code>",
                           same ? "same" : "<b>changed since the measurement</b>"});
         c.row_class.push_back(same ? "" : "warn");
       }

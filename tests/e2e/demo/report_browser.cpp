@@ -104,7 +104,11 @@ void check_demo_report(const fs::path& demo) {
   write_file_atomic(copy, probed);
   const std::string url = "file://" + copy.string();
 
-  const ProcessOutput dom = chromium(tmp / "profile1", {"--virtual-time-budget=10000", "--dump-dom", url});
+  // The same width for the layout probe as for the screenshot below (the page's layout depends
+  // on the width only), so that the boxes the probe reports are where the screenshot has them.
+  constexpr int kWidth = 1200;
+  const ProcessOutput dom = chromium(
+      tmp / "profile1", {fmt::format("--window-size={},1000", kWidth), "--virtual-time-budget=10000", "--dump-dom", url});
   ASSERT_EQ(dom.exit_code, 0) << dom.err.substr(0, 2000);
   const auto p0 = dom.out.find("<pre id=\"probe\">");
   ASSERT_NE(p0, std::string::npos) << "the page's load event did not run";
@@ -138,7 +142,7 @@ void check_demo_report(const fs::path& demo) {
   // pictures shows something (not a uniform box).
   const int height = std::min(probe["height"].get<int>() + 10, 30000);
   const fs::path shot = tmp / "page.png";
-  const ProcessOutput ss = chromium(tmp / "profile2", {"--hide-scrollbars", fmt::format("--window-size=1200,{}", height),
+  const ProcessOutput ss = chromium(tmp / "profile2", {"--hide-scrollbars", fmt::format("--window-size={},{}", kWidth, height),
                                                        "--screenshot=" + shot.string(), url});
   ASSERT_EQ(ss.exit_code, 0) << ss.err.substr(0, 2000);
   const cv::Mat image = cv::imread(shot.string(), cv::IMREAD_GRAYSCALE);
