@@ -140,12 +140,7 @@ std::string corner_residuals_part(const Json& cam, const Json& views) {
       s->dx[i] *= scale;
       s->dy[i] *= scale;
     }
-  Plot p;
-  p.title = "Corner residuals on the image";
-  p.xlabel = "x (px)";
-  p.ylabel = "y (px)";
-  p.width_px = 720;
-  p.height_px = w > 0 && h > 0 ? static_cast<int>(std::clamp(720.0 * h / w, 300.0, 720.0)) + 40 : 560;
+  Plot p = make_plot("Corner residuals on the image", "x (px)", "y (px)", 720, w > 0 && h > 0 ? static_cast<int>(std::clamp(720.0 * h / w, 300.0, 720.0)) + 40 : 560);
   p.series = {arrows};
   if (!dropped_arrows.x.empty()) p.series.push_back(dropped_arrows);
   if (w > 0 && h > 0) p.settings = {fmt::format("xrange [0:{}]", w), fmt::format("yrange [{}:0]", h), "size ratio -1"};
@@ -157,12 +152,7 @@ std::string corner_residuals_part(const Json& cam, const Json& views) {
   double width = 0;
   Series hist = histogram(lengths, 30, width);
   hist.title = "corners";
-  Plot ph;
-  ph.title = "Histogram of the corner residuals";
-  ph.xlabel = "residual (px)";
-  ph.ylabel = "corners";
-  ph.width_px = 560;
-  ph.height_px = 320;
+  Plot ph = make_plot("Histogram of the corner residuals", "residual (px)", "corners", 560, 320);
   ph.series = {hist};
   ph.settings = {fmt::format("boxwidth {:.9g}", width * 0.9), "yrange [0:*]", "xrange [0:*]"};
   s += plot_figure(ph, fmt::format("{} corners of the views in the fit: RMS <span id=\"corner-rms-px\">{}</span> px, "
@@ -242,10 +232,7 @@ std::string intrinsics_part(const Json& cam) {
       if (const Json* used = at(v, {"used"}); used && used->is_boolean() && !used->get<bool>())
         dropped.push_back(text_of(at(v, {"name"})));
     }
-    Plot p;
-    p.title = "Reprojection residual per view";
-    p.xlabel = "view";
-    p.ylabel = "residual (px)";
+    Plot p = make_plot("Reprojection residual per view", "view", "residual (px)");
     p.series = {rms, worst};
     p.settings = {"boxwidth 0.7", "yrange [0:*]", fmt::format("xrange [-1:{}]", views->size())};
     s += plot_figure(p, fmt::format("Per view the RMS of the corner residuals (bars) and the worst corner (dots). "
@@ -263,10 +250,7 @@ std::string response_part(const Json& r) {
   const Json* knots = at(r, {"knots_dn"});
   const Json* linear = at(r, {"linear"});
   if (knots && linear && knots->is_array() && linear->is_array()) {
-    Plot p;
-    p.title = "Response curve";
-    p.xlabel = "raw value above dark (DN)";
-    p.ylabel = "linear value g(u)";
+    Plot p = make_plot("Response curve", "raw value above dark (DN)", "linear value g(u)");
     static constexpr const char* kColours[] = {"#c0392b", "#27ae60", "#2e86c1"};
     static constexpr const char* kNames[] = {"R", "G", "B"};
     const bool mono = linear->size() == 1;
@@ -286,13 +270,8 @@ std::string response_part(const Json& r) {
     // knot (response.json residual_std), relative to the curve there.
     const Json* scatter = at(r, {"residual_std"});
     if (scatter && scatter->is_array()) {
-      Plot q;
-      q.title = "Scatter of the data about the curve";
-      q.xlabel = "raw value above dark (DN)";
-      q.ylabel = "residual standard deviation / g(u)";
+      Plot q = make_plot("Scatter of the data about the curve", "raw value above dark (DN)", "residual standard deviation / g(u)", 640, 320);
       q.log_y = true;
-      q.width_px = 640;
-      q.height_px = 320;
       for (std::size_t c = 0; c < scatter->size() && c < linear->size() && c < 3; ++c) {
         const Json& sd = (*scatter)[c];
         const Json& curve = (*linear)[c];
@@ -430,10 +409,7 @@ std::string light_part(const Json& light) {
       }
     }
     if (!err.x.empty()) {
-      Plot p;
-      p.title = "LED azimuth against the fitted arm";
-      p.xlabel = "table angle (deg)";
-      p.ylabel = "highlight azimuth - model (deg)";
+      Plot p = make_plot("LED azimuth against the fitted arm", "table angle (deg)", "highlight azimuth - model (deg)");
       p.series = {err};
       s += plot_figure(p, fmt::format("Each used highlight's azimuth against the arm model (radius {} m, height {} m, "
                                       "zero {} deg): RMS {} deg, worst {} deg.",

@@ -106,13 +106,8 @@ std::string residual_part(const Json& fit) {
   const Json* curves = at(*res, {"curves"});
   if (curves && curves->is_array() && !curves->empty()) {
     static constexpr const char* kColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b"};
-    Plot p;
-    p.title = "Measured (dots) and fitted (lines) along θh";
-    p.xlabel = "θh (deg)";
-    p.ylabel = "BRDF (1/sr)";
+    Plot p = make_plot("Measured (dots) and fitted (lines) along θh", "θh (deg)", "BRDF (1/sr)", 720, 440);
     p.log_y = true;
-    p.width_px = 720;
-    p.height_px = 440;
     for (std::size_t k = 0; k < curves->size(); ++k) {
       const Json& c = (*curves)[k];
       const char* colour = kColours[k % 6];
@@ -160,12 +155,7 @@ std::string coverage_part(const Json& fit) {
       map.y.push_back(j);
       map.z.push_back(grid[static_cast<std::size_t>(i * 90 + j)]);
     }
-  Plot p;
-  p.title = "Half-vector coverage: samples per (θh, θd) bin";
-  p.xlabel = "θh (deg; MERL bins, square-root axis)";
-  p.ylabel = "θd (deg)";
-  p.width_px = 640;
-  p.height_px = 520;
+  Plot p = make_plot("Half-vector coverage: samples per (θh, θd) bin", "θh (deg; MERL bins, square-root axis)", "θd (deg)", 640, 520);
   p.series = {map};
   std::string tics = "xtics (";
   for (double d : {0.0, 1.0, 4.0, 10.0, 20.0, 40.0, 60.0, 90.0})

@@ -185,29 +185,20 @@ Section measurement_section(const fs::path& dir, const SectionOptions&) {
     if (std::isfinite(end - start)) total += end - start;
     exposure_total += ex_sum;
   }
-  Plot timeline;
-  timeline.title = "Journal timeline";
-  timeline.xlabel = "rig-clock time (s)";
-  timeline.ylabel = "light angle (deg)";
+  Plot timeline = make_plot("Journal timeline", "rig-clock time (s)", "light angle (deg)");
   timeline.series = {pos};
   if (!resumes.x.empty()) timeline.series.push_back(resumes);
   s += plot_figure(timeline, fmt::format("Each finished position at the time it started on the rig clock; {} run{}{}.",
                                          runs, runs == 1 ? "" : "s",
                                          runs > 1 ? " (red: where a resumed run took over)" : ""));
-  Plot ex;
-  ex.title = "Exposures per position";
-  ex.xlabel = "position index";
-  ex.ylabel = "exposures";
+  Plot ex = make_plot("Exposures per position", "position index", "exposures");
   ex.series = {exposure};
   ex.settings = {"yrange [0:*]"};
   std::string used;
   for (const auto& [n, count] : exposures_used) used += fmt::format("{}{} positions with {}", used.empty() ? "" : ", ", count, n);
   s += plot_figure(ex, "Exposures taken per position (adaptive bracketing takes fewer where the sphere is dark): " +
                            esc(used) + ".");
-  Plot t;
-  t.title = "Time per position";
-  t.xlabel = "position index";
-  t.ylabel = "time (s)";
+  Plot t = make_plot("Time per position", "position index", "time (s)");
   t.log_y = true;
   t.series = {took, lower};
   s += plot_figure(t, fmt::format("Rig-clock time each position took (blue) against the exposure time it needed "

@@ -37,6 +37,18 @@ struct Plot {
   std::vector<std::string> settings;  // further gnuplot `set` lines (e.g. "xrange [0:90]")
 };
 
+// A plot with its title, axis labels and size, no series yet.
+inline Plot make_plot(std::string title, std::string xlabel, std::string ylabel, int width_px = 640,
+                      int height_px = 380) {
+  Plot p;
+  p.title = std::move(title);
+  p.xlabel = std::move(xlabel);
+  p.ylabel = std::move(ylabel);
+  p.width_px = width_px;
+  p.height_px = height_px;
+  return p;
+}
+
 // The plot as a standalone SVG document. IoError when gnuplot is not installed or fails
 // (naming it and what it printed); DataError for a plot without a single finite point.
 std::string plot_svg(const Plot& plot);
