@@ -71,8 +71,10 @@ int run_check(const CheckArgs& a) {
   say(a.json ? report.to_json().dump(2) : report.table());
   if (!a.report.empty()) {
     // The calibration folder's report, failing checks first (written whether the check passed or not).
+    paintlab::report::ReportOptions options;
+    options.rig = a.rig;
     const paintlab::report::Report page =
-        paintlab::report::make_report(paintlab::report::classify_input(rig.calibration_dir));
+        paintlab::report::make_report(paintlab::report::classify_input(rig.calibration_dir), options);
     write_file_atomic(a.report, page.html);
     say(fmt::format("wrote {} (the calibration and this check)", a.report));
   }

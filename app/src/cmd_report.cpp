@@ -24,15 +24,17 @@ struct ReportArgs {
   std::string input;
   std::string out;
   std::string title;
+  std::string rig;
 };
 
 int run_report(const ReportArgs& a) {
-  fit::OutputGuard().input("INPUT", a.input).output({"--out", a.out}).check();
+  fit::OutputGuard().input("INPUT", a.input).input("--rig", a.rig).output({"--out", a.out}).check();
   const auto t0 = std::chrono::steady_clock::now();
   const report::ReportInput in = report::classify_input(a.input);
   say(fmt::format("report: {} {}", report::to_string(in.kind), in.path.string()));
   report::ReportOptions o;
   o.title = a.title;
+  o.rig = a.rig;
   const report::Report r = report::make_report(in, o);
   write_file_atomic(a.out, r.html);
   for (const std::string& f : r.failing) say("  failing: " + f);
@@ -50,6 +52,9 @@ void register_report_commands(CLI::App& app) {
   cmd->add_option("INPUT", a->input, "a calibration folder, a session folder, a fit.json or a demo folder")->required();
   cmd->add_option("--out", a->out, "the HTML file to write")->required();
   cmd->add_option("--title", a->title, "page title (default: the paint or folder and the kind of input)");
+  cmd->add_option("--rig", a->rig,
+                  "the rig file whose nominal geometry the calibration is compared with (default: a demo's rig.toml, "
+                  "the one a session names, or rig.toml beside a calibration folder it names)");
 }
 
 }  // namespace paintlab::app

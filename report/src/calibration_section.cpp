@@ -393,8 +393,37 @@ std::string sphere_part(const fs::path& dir, const Json& sphere, int max_px) {
   return s;
 }
 
-std::string light_part(const Json& light) {
+std::string light_part(const Json& light, const RigConfig* rig) {
   std::string s = "<h3>Light positions (light.json)</h3>\n";
+  if (rig) {
+    // The arm as calibrated against the arm as rig.toml describes it (measured by hand).
+    const RigGeometry& g = rig->geometry;
+    Table t;
+    t.id = "arm";
+    t.head = {"arm", "nominal (rig.toml)", "calibrated (light.json)", "calibrated - nominal"};
+    const auto row = [&](const char* what, double nominal, const Json* fitted, const Json* sd, double unit,
+                         const char* unit_name, const std::string& id) {
+      const double f = number_or_nan(fitted);
+      t.rows.push_back({what, num(nominal * unit, 5) + " " + unit_name,
+                        num(f * unit, 5) + (sd && sd->is_number() ? " ± " + num(sd->get<double>() * unit, 2) : "") + " " +
+                            unit_name,
+                        // Fixed decimals: 0.01 mm, 0.001 deg, whatever the size of the difference.
+                        with_id(id, std::isfinite(f) ? fmt::format("{:+.{}f} {}", (f - nominal) * unit,
+                                                                   unit == 1.0 ? 3 : 2, unit_name)
+                                                     : "—")});
+    };
+    row("radius", g.arm_radius_m, at(light, {"arm_radius_m"}), at(light, {"std", "arm_radius_m"}), 1000.0, "mm",
+        "arm-radius-diff-mm");
+    row("height above the sphere centre", g.arm_height_m, at(light, {"arm_height_m"}), at(light, {"std", "arm_height_m"}),
+        1000.0, "mm", "arm-height-diff-mm");
+    row("azimuth at table 0", g.arm_zero_deg, at(light, {"zero_deg"}), at(light, {"std", "zero_deg"}), 1.0, "deg",
+        "arm-zero-diff-deg");
+    s += table_html(t);
+    s += fmt::format("<p class=\"note\">Nominal: rig file <code>{}</code>. A difference of millimetres in the radius "
+                     "or height, or a fraction of a degree in the zero, is the hand measurement's error the "
+                     "calibration removes; much more means the arm moved or rig.toml describes another rig.</p>\n",
+                     esc(rig->file.string()));
+  }
   const Json* hl = at(light, {"highlights"});
   std::vector<std::vector<std::string>> unused;
   if (hl && hl->is_array()) {
@@ -510,7 +539,7 @@ Section calibration_section(const fs::path& dir, const SectionOptions& o) {
     s += "</div>\n";
   }
   if (files.count("sphere")) s += sphere_part(dir, files["sphere"], o.max_image_px);
-  if (files.count("light")) s += light_part(files["light"]);
+  if (files.count("light")) s += light_part(files["light"], o.rig);
   if (files.count("colour")) s += colour_chart_part(files["colour"]);
   return sec;
 }

@@ -2,8 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <optional>
+
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
+#include "paintlab/core/rig.h"
 #include "paintlab/core/version.h"
 #include "paintlab/fitting/compare.h"
 #include "report_parts.h"
@@ -88,6 +91,7 @@ Section provenance_section(const ReportInput& in) {
   }
   if (!in.fit.empty()) add(in.fit, in.fit.filename().string());
   if (!in.summary.empty()) add(in.summary, "summary.json");
+  if (!in.rig.empty()) add(in.rig, "rig file " + in.rig.filename().string());
   std::string& s = sec.html;
   s += fmt::format("<p>Report written by paintlab <span id=\"software-version\">{}</span> on {} from the {} "
                    "<code>{}</code>.</p>\n",
@@ -164,6 +168,7 @@ ReportInput classify_input(const fs::path& input) {
       if (fs::exists(p / "calib")) in.calibration = p / "calib";
       if (fs::exists(p / "session")) in.session = p / "session";
       in.fit = p / "fit.json";
+      if (fs::exists(p / "rig.toml")) in.rig = p / "rig.toml";
       for (const char* img : {"preview.png", "compare.png"})
         if (fs::exists(p / img)) in.images.push_back(p / img);
       return in;
@@ -171,11 +176,23 @@ ReportInput classify_input(const fs::path& input) {
     if (fs::exists(p / "session.json")) {
       in.kind = InputKind::Session;
       in.session = p;
+      const Json session = read_json_file(p / "session.json");
+      if (const Json* rig = at(session, {"rig", "file"}); rig && rig->is_string() && fs::exists(rig->get<std::string>()))
+        in.rig = rig->get<std::string>();
       return in;
     }
     if (is_calibration_folder(p)) {
       in.kind = InputKind::Calibration;
       in.calibration = p;
+      // rig.toml beside the folder, when its `calibration` names this folder.
+      const fs::path beside = p.parent_path() / "rig.toml";
+      if (fs::exists(beside)) {
+        try {
+          if (fs::equivalent(RigConfig::load(beside).calibration_dir, p)) in.rig = beside;
+        } catch (const Error&) {
+          // Another rig's file, or a broken one: not this folder's rig; the page goes without it.
+        }
+      }
       return in;
     }
     throw DataError(fmt::format(
@@ -204,6 +221,12 @@ ReportInput classify_input(const fs::path& input) {
 Report make_report(const ReportInput& in, const ReportOptions& options) {
   SectionOptions so;
   so.max_image_px = options.max_image_px;
+  std::optional<RigConfig> rig;
+  const fs::path rig_file = options.rig.empty() ? in.rig : options.rig;
+  if (!rig_file.empty()) {
+    rig = RigConfig::load(rig_file);
+    so.rig = &*rig;
+  }
   std::vector<Section> sections;
   Json summary;
   if (!in.summary.empty()) {
@@ -228,7 +251,9 @@ Report make_report(const ReportInput& in, const ReportOptions& options) {
     sections.push_back(fit_section(in.fit, in.images, so));
     sections.push_back(colour_section(in.fit, summary.is_object() ? &summary : nullptr, so));
   }
-  sections.push_back(provenance_section(in));
+  ReportInput used = in;
+  used.rig = rig_file;
+  sections.push_back(provenance_section(used));
 
   Report r;
   for (const Section& s : sections) {

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "paintlab/core/json.h"
+#include "paintlab/core/rig.h"
 #include "paintlab/report/plot.h"
 
 namespace paintlab::report {
@@ -53,6 +54,7 @@ struct Section {
 };
 struct SectionOptions {
   int max_image_px = 720;
+  const RigConfig* rig = nullptr;  // the nominal geometry, when the rig file is known
 };
 
 Section calibration_section(const std::filesystem::path& dir, const SectionOptions& o);

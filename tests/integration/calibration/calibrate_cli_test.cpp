@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
 #include "paintlab/core/json.h"
 #include "sim_rigs.h"
@@ -86,6 +88,14 @@ TEST(CheckCli, EmptyCalibrationFolderFailsWithTheCommandsToRunAndWritesCheckJson
   EXPECT_EQ(r.exit_code, 1);
   Json printed = Json::parse(r.out);
   EXPECT_FALSE(printed["passed"].get<bool>());
+  // --report: the calibration folder's page, written though the check failed, saying what
+  // fails and which files are missing (docs/reports.md).
+  r = test::run_paintlab("check --rig " + (dir / "rig.toml").string() + " --report " + (dir / "check.html").string());
+  EXPECT_EQ(r.exit_code, 1);
+  std::ifstream in(dir / "check.html");
+  const std::string page((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(page, ::testing::HasSubstr("id=\"check-verdict\">FAILED"));
+  EXPECT_THAT(page, ::testing::HasSubstr("missing: run <code>paintlab calibrate light</code>"));
 }
 
 // A step whose prerequisites are missing stops before any device opens and names the files

@@ -203,6 +203,49 @@ TEST(Report, ACalibrationFolderWithAFailedCheckListsTheFailureFirstAndWhatIsMiss
   EXPECT_NEAR(std::stod(element_text(r.html, "corner-rms-px")), std::sqrt((15 * 0.0009 + 5 * 0.0016) / 20.0), 1e-4);
 }
 
+TEST(Report, ACalibrationFolderBesideItsRigFileComparesTheArmWithTheNominalOne) {
+  test::TempDir dir;
+  write_calibration(dir / "calib");
+  write_file_atomic(dir / "rig.toml", "calibration = \"calib\"\nname = \"r1\"\n" + test::kSimDevicesToml + R"([geometry]
+sphere_radius_m = 0.04
+arm_radius_m = 0.6
+arm_zero_deg = 0.1
+camera_distance_m = 1.2
+[plan]
+angle_start_deg = 0
+angle_stop_deg = 180
+angle_step_deg = 1
+exposures_ms = [0.25, 1, 4]
+)");
+  write_json_file(dir / "calib" / "light.json",
+                  {{"arm_radius_m", 0.6021}, {"arm_height_m", 0.0027}, {"zero_deg", 0.18}, {"rms_deg", 0.003},
+                   {"max_deg", 0.006}, {"std", {{"arm_radius_m", 0.0009}, {"arm_height_m", 1e-5}, {"zero_deg", 0.001}}},
+                   {"highlights", {{{"table_angle_deg", -10.0}, {"used", true}, {"azimuth_error_deg", 0.002}},
+                                   {{"table_angle_deg", 0.0}, {"used", true}, {"azimuth_error_deg", -0.001}},
+                                   {{"table_angle_deg", 10.0}, {"used", false}, {"reason", "too close to the silhouette"}}}}});
+  const report::ReportInput in = report::classify_input(dir / "calib");
+  EXPECT_EQ(in.rig, dir / "rig.toml");
+  const std::string html = report::make_report(in).html;
+  EXPECT_NEAR(std::stod(element_text(html, "arm-radius-diff-mm")), 2.1, 1e-6);
+  EXPECT_NEAR(std::stod(element_text(html, "arm-height-diff-mm")), 2.7, 1e-6);
+  EXPECT_NEAR(std::stod(element_text(html, "arm-zero-diff-deg")), 0.08, 1e-6);
+  EXPECT_THAT(html, HasSubstr("too close to the silhouette"));
+  // Another rig file given with --rig (ReportOptions::rig) is the one compared with.
+  write_file_atomic(dir / "other.toml", "name = \"r2\"\n" + test::kSimDevicesToml + R"([geometry]
+sphere_radius_m = 0.04
+arm_radius_m = 0.5
+camera_distance_m = 1.2
+[plan]
+angle_start_deg = 0
+angle_stop_deg = 180
+angle_step_deg = 1
+exposures_ms = [0.25, 1, 4]
+)");
+  report::ReportOptions o;
+  o.rig = dir / "other.toml";
+  EXPECT_NEAR(std::stod(element_text(report::make_report(in, o).html, "arm-radius-diff-mm")), 102.1, 1e-6);
+}
+
 TEST(Report, AnIncompleteSessionSaysHowManyPositionsAreMissingAndHowToResume) {
   test::TempDir dir;
   const fs::path s = dir / "session";

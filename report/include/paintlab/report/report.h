@@ -23,7 +23,11 @@ struct ReportInput {
   std::filesystem::path session;      // session folder, or empty
   std::filesystem::path fit;          // fit.json, or empty
   std::filesystem::path summary;      // demo summary.json, or empty
+  // The rig file, for the nominal geometry the calibration is compared with: a demo's
+  // rig.toml, the file a session names, or rig.toml beside a calibration folder whose
+  // `calibration` is that folder; empty when none is found (ReportOptions::rig overrides).
   std::vector<std::filesystem::path> images;  // PNG pictures to show with the fit (preview, comparison)
+  std::filesystem::path rig;
 };
 
 // Recognises INPUT: a folder with summary.json (a demo), with session.json (a session), with
@@ -35,6 +39,7 @@ ReportInput classify_input(const std::filesystem::path& input);
 struct ReportOptions {
   std::string title;  // page title; default from the input
   int max_image_px = 720;  // pictures are scaled down to at most this width
+  std::filesystem::path rig;  // the rig file (paintlab report --rig); empty: ReportInput::rig
 };
 
 // A section that lacks data says what is missing; one whose checks fail says which.
@@ -45,8 +50,8 @@ struct Report {
   std::vector<std::string> failing;   // failed checks, a fit that did not converge
 };
 
-// Builds the page. DataError (naming the file) for a damaged JSON or EXR file; missing files
-// only leave their part out, saying so on the page.
+// Builds the page. DataError (naming the file) for a damaged JSON or EXR file, ConfigError for
+// a rig file that does not load; missing files only leave their part out, saying so on the page.
 Report make_report(const ReportInput& input, const ReportOptions& options = {});
 
 }  // namespace paintlab::report
