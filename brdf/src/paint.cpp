@@ -269,6 +269,10 @@ PaintSpec parse_generic(const Table& t, const fs::path& base_dir, bool name_requ
     fl.density = f.number("density", Bounds{0.0, kMaxFlakeDensity, true, false});
     fl.roughness = f.number("roughness", kUnitOpen);
     fl.lifetime_deg = f.number("lifetime_deg", fl.lifetime_deg, Bounds{0.0, 45.0, true, false});
+    fl.tint_sd = f.number("tint_sd", fl.tint_sd, Bounds::closed(0.0, 1.0));
+    fl.interference = f.number("interference", fl.interference, Bounds::closed(0.0, 1.0));
+    fl.interference_chroma = f.number("interference_chroma", fl.interference_chroma, Bounds{0.0, 1.0, true, false});
+    fl.interference_shift_deg = f.number("interference_shift_deg", fl.interference_shift_deg, Bounds::closed(-90.0, 90.0));
     if (model == kPearl) {
       if (f.has("lobes"))
         f.fail("lobes", "layered-pearlescent has no lobes; its flakes carry the glitter term");
@@ -400,6 +404,10 @@ std::string to_toml(const PaintSpec& spec) {
     const FlakeSpec& f = *spec.flakes;
     tail += "\n[flakes]\ndensity = " + num(f.density) + "\nroughness = " + num(f.roughness) +
             "\nlifetime_deg = " + num(f.lifetime_deg) + "\n";
+    if (f.coloured())
+      tail += "tint_sd = " + num(f.tint_sd) + "\ninterference = " + num(f.interference) +
+              "\ninterference_chroma = " + num(f.interference_chroma) +
+              "\ninterference_shift_deg = " + num(f.interference_shift_deg) + "\n";
     if (!f.lobes.empty()) {
       tail += "lobes = [";
       for (std::size_t i = 0; i < f.lobes.size(); ++i) tail += (i ? ", " : "") + std::to_string(f.lobes[i] + 1);
@@ -454,6 +462,12 @@ Json to_json(const PaintSpec& spec) {
   if (spec.flakes) {
     const FlakeSpec& f = *spec.flakes;
     Json fl = {{"density", f.density}, {"roughness", f.roughness}, {"lifetime_deg", f.lifetime_deg}};
+    if (f.coloured()) {
+      fl["tint_sd"] = f.tint_sd;
+      fl["interference"] = f.interference;
+      fl["interference_chroma"] = f.interference_chroma;
+      fl["interference_shift_deg"] = f.interference_shift_deg;
+    }
     if (!f.lobes.empty()) {
       Json lobes = Json::array();
       for (int l : f.lobes) lobes.push_back(l + 1);
@@ -508,6 +522,10 @@ std::string describe_paint(const PaintSpec& spec) {
     s += fmt::format("  flakes (sparkle)      density {:.4g}, roughness {:.4g}, lifetime {:.4g} deg, carry {}\n",
                      f.density, f.roughness, f.lifetime_deg,
                      carried.empty() ? std::string("the glitter term") : "lobe(s) " + carried);
+    if (f.coloured())
+      s += fmt::format("  flake colour          tint sd {:.3g}; {:.3g} interference flakes of chroma {:.3g}, hue "
+                       "turning {:.3g} deg/deg\n",
+                       f.tint_sd, f.interference, f.interference_chroma, f.interference_shift_deg);
   }
   return s;
 }

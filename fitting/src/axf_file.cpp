@@ -179,6 +179,12 @@ void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const
     std::vector<std::int64_t> lobes;
     for (int l : f.lobes) lobes.push_back(l + 1);
     w.ints(g.get(), "lobes", lobes, {static_cast<hsize_t>(lobes.size())}, h5::join(gp, "lobes"));
+    if (f.coloured()) {  // format version 4
+      w.scalar(g.get(), "tint_sd", f.tint_sd, h5::join(gp, "tint_sd"));
+      w.scalar(g.get(), "interference", f.interference, h5::join(gp, "interference"));
+      w.scalar(g.get(), "interference_chroma", f.interference_chroma, h5::join(gp, "interference_chroma"));
+      w.scalar(g.get(), "interference_shift_deg", f.interference_shift_deg, h5::join(gp, "interference_shift_deg"));
+    }
   }
 
   if (paint.fit_quality) {
@@ -326,11 +332,11 @@ std::string check_conventions(hid_t root, const std::string& rp, std::optional<s
     if (k == "values" && v3) {
       if (*s == axf_values_convention(colour::kLinearSrgb)) colour_space = colour::kLinearSrgb;
       else if (*s != axf_values_convention(colour::kCameraRgb))
-        p.add(h5::attr_path(gp, k), "states a colour space the format (version 3) does not define (\"" + *s +
+        p.add(h5::attr_path(gp, k), "states a colour space the format (versions 3 and 4) does not define (\"" + *s +
                                         "\"); expected \"" + axf_values_convention(colour::kLinearSrgb) + "\" or \"" +
                                         axf_values_convention(colour::kCameraRgb) + "\"");
     } else if (*s != v) {
-      p.add(h5::attr_path(gp, k), "states a different convention than the format (versions 1 to 3) defines (\"" +
+      p.add(h5::attr_path(gp, k), "states a different convention than the format (versions 1 to 4) defines (\"" +
                                       *s + "\"); expected \"" + v + "\"");
     }
   }
@@ -519,6 +525,23 @@ std::optional<brdf::FlakeSpec> read_flakes(hid_t root, const std::string& rp, st
         }
         f.lobes.push_back(static_cast<int>(v - 1));
       }
+    }
+  }
+  // The flakes' colour (version 4): all four or none.
+  const std::vector<std::string> colour_names = {"tint_sd", "interference", "interference_chroma",
+                                                 "interference_shift_deg"};
+  int present = 0;
+  for (const auto& s : colour_names) present += h5::exists(g.id(), s, h5::join(gp, s), p) ? 1 : 0;
+  if (present > 0) {
+    auto sd = read_checked(g.id(), "tint_sd", gp, {}, Range::closed(0, 1), p);
+    auto fr = read_checked(g.id(), "interference", gp, {}, Range::closed(0, 1), p);
+    auto ch = read_checked(g.id(), "interference_chroma", gp, {}, Range{0, 1, true, false}, p);
+    auto sh = read_checked(g.id(), "interference_shift_deg", gp, {}, Range::closed(-90, 90), p);
+    if (sd && fr && ch && sh) {
+      f.tint_sd = sd->values[0];
+      f.interference = fr->values[0];
+      f.interference_chroma = ch->values[0];
+      f.interference_shift_deg = sh->values[0];
     }
   }
   if (!g.clean(p)) return std::nullopt;

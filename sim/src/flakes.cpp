@@ -9,6 +9,7 @@ namespace paintlab::sim {
 
 namespace {
 constexpr std::uint64_t kStreamFlakes = 0x464c'414b;  // "FLAK"
+constexpr std::uint64_t kStreamColour = 0x434f'4c52;  // "COLR"
 constexpr int kQuadraturePoints = 2048;
 }  // namespace
 
@@ -104,9 +105,31 @@ std::vector<Flake> FlakeField::cell(int iz, int iphi) const {
     Vec3 u(s * std::cos(phi), s * std::sin(phi), z);
     double theta_f = std::atan(roughness_ * std::sqrt(-std::log1p(-r1)));
     Vec3 n = frame_from_normal(u) * spherical_to_vec(theta_f, 2.0 * kPi * r2);
-    out.push_back({u, n});
+    out.push_back({u, n, detail::mix64(detail::hash_key(key, kStreamColour, static_cast<std::uint64_t>(j)))});
   }
   return out;
+}
+
+FlakeTint draw_flake_tint(std::uint64_t bits, const FlakeColour& colour) {
+  FlakeTint t;
+  const double u0 = static_cast<double>(bits >> 43) * 0x1.0p-21;             // kind
+  const double u1 = (static_cast<double>((bits >> 22) & 0x1FFFFF) + 0.5) * 0x1.0p-21;  // radius, (0, 1)
+  const double u2 = static_cast<double>(bits & 0x3FFFFF) * 0x1.0p-22;       // hue
+  t.hue_rad = 2.0 * kPi * u2;
+  if (u0 < colour.interference) {
+    t.interference = true;
+    t.chroma = colour.interference_chroma;
+  } else if (colour.tint_sd > 0) {
+    // Box-Muller radius of a 2D normal; psi uniform.
+    t.chroma = std::min(1.0, colour.tint_sd * std::sqrt(-2.0 * std::log(u1)));
+  }
+  return t;
+}
+
+Vec3 flake_tint_rgb(double chroma, double hue_rad) {
+  static const Vec3 u = Vec3(2.0, -1.0, -1.0) / std::sqrt(6.0);
+  static const Vec3 v = Vec3(0.0, 1.0, -1.0) / std::sqrt(2.0);
+  return Vec3::Ones() + chroma * (std::cos(hue_rad) * u + std::sin(hue_rad) * v);
 }
 
 }  // namespace paintlab::sim

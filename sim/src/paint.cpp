@@ -50,6 +50,7 @@ SimPaint sim_paint(const brdf::PaintSpec& spec) {
   sp.density = fl.density;
   sp.roughness = fl.roughness;
   sp.lifetime_deg = fl.lifetime_deg;
+  sp.colour = {fl.tint_sd, fl.interference, fl.interference_chroma, fl.interference_shift_deg};
   if (const auto* ct = spec.cook_torrance()) {
     sp.flake_part = std::make_shared<brdf::CookTorrance>(brdf::Rgb::Zero(), pick_lobes(ct->lobes, fl.lobes, spec.name));
     sp.steady_part = std::make_shared<brdf::CookTorrance>(ct->kd, pick_lobes(ct->lobes, fl.lobes, spec.name, false));

@@ -212,8 +212,18 @@ struct SimWorld::PaintState {
   double cos_lifetime = 1.0;
   double flakes_per_m2 = 0.0;
   double floor = 0.1;
+  bool coloured = false;
+  double shift_rad_per_rad = 0.0;      // interference flakes' hue turn
+  // A flake of an interior pixel: its normal (x 32767) and its tint (FlakeTint: chroma x 255,
+  // hue in 65536 steps of a turn).
+  struct FlakeRec {
+    std::array<std::int16_t, 3> normal;
+    std::uint8_t chroma;
+    std::uint8_t interference;
+    std::uint16_t hue;
+  };
   std::vector<std::uint32_t> offsets;  // per interior pixel + 1
-  std::vector<std::array<std::int16_t, 3>> normals;
+  std::vector<FlakeRec> normals;
 };
 
 SimWorld::SimWorld(const SimConfig& config)
@@ -408,7 +418,9 @@ std::shared_ptr<const SimWorld::PaintState> SimWorld::make_paint_state(SimPaint 
                                   "visible flakes, more than the renderer keeps (1.5e8)",
                                   sp.density, expected_total));
     FlakeField field(s.r, st->flakes_per_m2, sp.roughness, config_.seed);
-    std::vector<std::pair<std::uint32_t, std::array<std::int16_t, 3>>> assigned;
+    st->coloured = sp.colour.any();
+    st->shift_rad_per_rad = sp.colour.interference_shift_deg;  // deg per deg = rad per rad
+    std::vector<std::pair<std::uint32_t, PaintState::FlakeRec>> assigned;
     const CameraModel& cam = *camera_;
     const Rigid3& cfr = cam.cam_from_rig();
     // Only cells and flakes that land in the image; points are first checked in the
@@ -431,8 +443,14 @@ std::shared_ptr<const SimWorld::PaintState> SimWorld::make_paint_state(SimPaint 
       if (fx < 0 || fy < 0 || fx >= s.w || fy >= s.h) return;
       std::size_t i = static_cast<std::size_t>(fy) * s.w + static_cast<std::size_t>(fx);
       if (s.kind[i] != kInterior) return;
-      std::array<std::int16_t, 3> q;
-      for (int k = 0; k < 3; ++k) q[k] = static_cast<std::int16_t>(std::lround(f.normal[k] * 32767.0));
+      PaintState::FlakeRec q{};
+      for (int k = 0; k < 3; ++k) q.normal[k] = static_cast<std::int16_t>(std::lround(f.normal[k] * 32767.0));
+      if (st->coloured) {
+        const FlakeTint t = draw_flake_tint(f.colour_bits, sp.colour);
+        q.chroma = static_cast<std::uint8_t>(std::lround(t.chroma * 255.0));
+        q.interference = t.interference ? 1 : 0;
+        q.hue = static_cast<std::uint16_t>(std::lround(t.hue_rad / (2.0 * kPi) * 65536.0) & 0xFFFF);
+      }
       assigned.emplace_back(static_cast<std::uint32_t>(s.slot[i]), q);
     }, keep_cell);
     st->offsets.assign(s.interior_pixel.size() + 1, 0);
@@ -571,18 +589,30 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
     return {Rgb(smooth * l.e), Rgb(fl * l.e)};
   };
   // The sparkle factor (K + eps) / (lambda + eps) of interior pixel j: K of its flakes lit
-  // for the half vector at sphere point q, lambda the count expected there.
-  auto flake_factor = [&](const Vec3& q, std::size_t j) -> double {
+  // for the half vector at sphere point q, lambda the count expected there. With coloured
+  // flakes K is the sum of the lit flakes' tints (per channel; E[tint] = 1).
+  auto flake_factor = [&](const Vec3& q, std::size_t j) -> Rgb {
     Vec3 p = s.c + q;
     Vec3 n = q / s.r;
-    Vec3 hv = ((light.pos - p).normalized() + (s.cam_centre - p).normalized()).normalized();
+    const Vec3 to_light = (light.pos - p).normalized();
+    Vec3 hv = (to_light + (s.cam_centre - p).normalized()).normalized();
     double lambda = st.flakes_per_m2 * s.interior_area[j] * (*st.cap)(n.dot(hv));
     Eigen::Vector3f hf = hv.cast<float>() * (1.0f / 32767.0f);
     float cos_l = static_cast<float>(st.cos_lifetime);
-    int k = 0;
+    Rgb k = Rgb::Zero();
+    // A lit flake's normal is within the lifetime of h: the light meets it at about the
+    // angle between the light and h.
+    const double incidence = std::acos(std::clamp(to_light.dot(hv), -1.0, 1.0));
     for (std::uint32_t a = st.offsets[j]; a < st.offsets[j + 1]; ++a) {
       const auto& nf = st.normals[a];
-      if (hf.x() * nf[0] + hf.y() * nf[1] + hf.z() * nf[2] >= cos_l) ++k;
+      if (hf.x() * nf.normal[0] + hf.y() * nf.normal[1] + hf.z() * nf.normal[2] < cos_l) continue;
+      if (nf.chroma == 0) {
+        k += Rgb::Ones();
+        continue;
+      }
+      double hue = nf.hue * (2.0 * kPi / 65536.0);
+      if (nf.interference) hue += st.shift_rad_per_rad * incidence;
+      k += flake_tint_rgb(nf.chroma / 255.0, hue).array();
     }
     return (k + st.floor) / (lambda + st.floor);
   };
@@ -626,8 +656,12 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
           auto j = static_cast<std::size_t>(s.slot[i]);
           const Vec3 q = s.interior_q[j].cast<double>();
           const Parts parts = shade_parts(q);
-          const double factor = sparkle ? flake_factor(q, j) : 1.0;
-          write(i, parts.smooth + (factor - 1.0) * parts.flakes);
+          if (sparkle) {
+            const Rgb factor = flake_factor(q, j);
+            write(i, parts.smooth + Rgb((factor.array() - 1.0) * parts.flakes.array()));
+          } else {
+            write(i, parts.smooth);
+          }
           if (smooth) write_to(*smooth, i, parts.smooth);
           break;
         }
@@ -686,7 +720,7 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
       const int x = static_cast<int>(i % static_cast<std::uint32_t>(s.w));
       const int y = static_cast<int>(i / static_cast<std::uint32_t>(s.w));
       const auto j = static_cast<std::size_t>(s.slot[i]);
-      const double factor = sparkle ? flake_factor(s.interior_q[j].cast<double>(), j) : 1.0;
+      const Rgb factor = sparkle ? flake_factor(s.interior_q[j].cast<double>(), j) : Rgb(Rgb::Ones());
       Parts sum;
       int hits = 0;
       for (int b = 0; b < n_sub; ++b)
@@ -699,7 +733,7 @@ ImageF SimWorld::render_impl(const PaintState& st, double angle_deg, bool led_on
           sum.flakes += pa.flakes;
           ++hits;
         }
-      if (hits > 0) write(i, (sum.smooth + (factor - 1.0) * sum.flakes) / hits);
+      if (hits > 0) write(i, Rgb((sum.smooth.array() + (factor.array() - 1.0) * sum.flakes.array()) / hits));
     });
   }
 

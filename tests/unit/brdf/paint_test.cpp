@@ -66,7 +66,7 @@ PaintSpec example_axf_spec() {
   p.chi.rgb = {Rgb(0.1, 0.2, 0.9), Rgb(0.11, 0.21, 0.91), Rgb(0.12, 0.22, 0.92),
                Rgb(0.2, 0.3, 0.8),  Rgb(0.21, 0.31, 0.81), Rgb(1.0 / 3.0, 0.1 + 0.2, 0.7)};
   s.params = p;
-  s.flakes = FlakeSpec{0.25, 0.2, 7.0, {0}};
+  s.flakes = FlakeSpec{0.25, 0.2, 7.0, {0}, 0.1, 0.3, 0.6, -5.0};  // coloured flakes
   return s;
 }
 }  // namespace
@@ -240,6 +240,12 @@ TEST(PaintFile, EveryKindOfBadFileNamesFileLineAndKey) {
   EXPECT_THAT(config_error(replace(good, "m = 0.38", "m = = 0.38")), HasSubstr("p.toml:6"));
   // Flake lobes.
   EXPECT_THAT(config_error(good + "lobes = [1, 1]\n"), HasSubstr("p.toml:15: key 'flakes.lobes': lobe 1 is listed twice"));
+  // The flakes' colour.
+  EXPECT_THAT(config_error(good + "tint_sd = 1.5\n"), HasSubstr("p.toml:15: key 'flakes.tint_sd': must be in [0, 1] (got 1.5)"));
+  EXPECT_THAT(config_error(good + "interference_chroma = 0\n"),
+              HasSubstr("p.toml:15: key 'flakes.interference_chroma': must be in (0, 1] (got 0)"));
+  EXPECT_THAT(config_error(good + "interference_shift_deg = 100\n"),
+              HasSubstr("p.toml:15: key 'flakes.interference_shift_deg': must be in [-90, 90] (got 100)"));
   EXPECT_THAT(config_error(good + "lobes = [1, 2, 1]\n"), HasSubstr("p.toml:15: key 'flakes.lobes': expected 1..2 values"));
   EXPECT_THAT(config_error(good + "lobes = [1.5]\n"),
               HasSubstr("p.toml:15: key 'flakes.lobes': lobe numbers are whole numbers (got 1.5)"));

@@ -581,8 +581,8 @@ TEST(AxfDamage, Version2FilesCarryChecksums) {
   }
   const AxfValidation v = validate_axf_file(file);
   EXPECT_TRUE(v.ok());
-  EXPECT_EQ(v.format_version, 3);
-  EXPECT_EQ(kAxfFormatVersion, 3);
+  EXPECT_EQ(v.format_version, 4);
+  EXPECT_EQ(kAxfFormatVersion, 4);
 }
 
 TEST(AxfDamage, ContentChecksumIsTheDocumentedOneOverEveryValue) {

@@ -69,6 +69,10 @@ AxfPaint full_paint() {
   f.roughness = 0.2;
   f.lifetime_deg = 5.5;
   f.lobes = {0, 2};
+  f.tint_sd = 0.12;  // coloured flakes (format version 4)
+  f.interference = 0.2;
+  f.interference_chroma = 0.6;
+  f.interference_shift_deg = -4.0;
   p.flakes = f;
   AxfFitQuality q;
   q.log_rms = 0.0234;
@@ -367,16 +371,16 @@ TEST(AxfFile, ValidatorNamesTheFieldOfEveryDamage) {
          H5Gclose(g);
        },
        "/conventions attribute 'colour_table_domain': missing"},
-      {"newer version", [](hid_t f) { set_int_attr(f, "/", "format_version", 4); },
-       "/ attribute 'format_version': 4 is newer than this software reads (3)"},
+      {"newer version", [](hid_t f) { set_int_attr(f, "/", "format_version", 5); },
+       "/ attribute 'format_version': 5 is newer than this software reads (4)"},
       {"unknown colour space", [](hid_t f) { set_string_attr(f, "/conventions", "values", "linear Adobe RGB: no gamma"); },
-       "/conventions attribute 'values': states a colour space the format (version 3) does not define"},
+       "/conventions attribute 'values': states a colour space the format (versions 3 and 4) does not define"},
       {"sRGB in a version-2 file",
        [](hid_t f) {
          set_int_attr(f, "/", "format_version", 2);
          set_string_attr(f, "/conventions", "values", axf_values_convention(colour::kLinearSrgb));
        },
-       "/conventions attribute 'values': states a different convention than the format (versions 1 to 3) defines"},
+       "/conventions attribute 'values': states a different convention than the format (versions 1 to 4) defines"},
       {"foreign format", [](hid_t f) { set_string_attr(f, "/", "format", "something-else"); },
        "/ attribute 'format': 'something-else' is not 'paintlab-axf-like'"},
       {"bad model", [](hid_t f) { set_string_attr(f, "/", "model", "phong"); }, "/ attribute 'model': 'phong'"},
@@ -542,7 +546,7 @@ TEST(AxfCli, ValidateExitCodesAndMessages) {
   write_axf_file(good, full_paint());
   auto r = test::run_paintlab("axf validate " + good.string());
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 3)"));
+  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 4)"));
 
   const fs::path bad = tmp / "bad.axf.h5";
   fs::copy_file(good, bad);

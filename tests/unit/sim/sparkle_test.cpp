@@ -124,3 +124,113 @@ TEST(Sparkle, PatternIsStableAndGlintsMoveWithTheLight) {
   EXPECT_GT(only_a, 50);
   EXPECT_GT(both, 10);  // flakes with a lifetime of 6.5 deg: many still glint
 }
+
+TEST(SparkleColour, TintsAverageToGreyAndFollowTheirDistribution) {
+  sim::FlakeColour colour;
+  colour.tint_sd = 0.25;
+  colour.interference = 0.3;
+  colour.interference_chroma = 0.7;
+  sim::FlakeField field(1.0, 20000.0, 0.15, 4);
+  Vec3 sum = Vec3::Zero();
+  double chroma_sum = 0;
+  int n = 0, interference = 0;
+  field.for_each_visible(Vec3(0, 0, 1e6), [&](const sim::Flake& f) {
+    const sim::FlakeTint t = sim::draw_flake_tint(f.colour_bits, colour);
+    // An interference flake's hue turns with the angle; its mean stays grey at any angle.
+    const double turn = t.interference ? deg_to_rad(colour.interference_shift_deg * 20.0) : 0.0;
+    sum += sim::flake_tint_rgb(t.chroma, t.hue_rad + turn);
+    if (t.interference) {
+      ++interference;
+      EXPECT_DOUBLE_EQ(t.chroma, 0.7);
+    } else {
+      chroma_sum += t.chroma;
+    }
+    ++n;
+  });
+  ASSERT_GT(n, 100000);
+  const Vec3 mean = sum / n;
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c], 1.0, 0.01) << "channel " << c;
+  EXPECT_NEAR(static_cast<double>(interference) / n, 0.3, 0.01);
+  // The chroma of ordinary flakes is Rayleigh(sd): mean sd sqrt(pi / 2) (clipping at 1 is
+  // 4 sd away and does not show).
+  EXPECT_NEAR(chroma_sum / (n - interference), 0.25 * std::sqrt(kPi / 2), 0.005);
+  // A tint of chroma c is c away from grey, orthogonal to it, never negative.
+  const Vec3 t = sim::flake_tint_rgb(0.5, 1.3);
+  EXPECT_NEAR((t - Vec3::Ones()).norm(), 0.5, 1e-12);
+  EXPECT_NEAR((t - Vec3::Ones()).sum(), 0.0, 1e-12);
+  for (double h = 0; h < 2 * kPi; h += 0.1) EXPECT_GT(sim::flake_tint_rgb(1.0, h).minCoeff(), 0.18);
+  // Grey paints draw grey flakes.
+  EXPECT_EQ(sim::draw_flake_tint(12345, sim::FlakeColour{}).chroma, 0.0);
+}
+
+namespace {
+
+// The glints of a colour render with coloured flakes: per channel sum(sparkle) /
+// sum(smooth), and the spread of the glints' chromaticity r / (r + g + b) relative to the
+// smooth value's.
+struct ColourRun {
+  Vec3 ratio;
+  double glint_chroma_sd;
+  std::size_t glints;
+};
+
+ColourRun colour_run(const sim::FlakeColour& colour, double angle_deg) {
+  sim::SimConfig cfg = sim::test::small_config(150.0);
+  cfg.seed = 5;
+  sim::SimWorld world(cfg);
+  auto lobe = std::make_shared<sim::test::TestLobeBrdf>(0.0, 0.5, 0.3);
+  sim::Sparkle sp;
+  sp.density = 4.0;
+  sp.roughness = 0.3;
+  sp.flake_part = lobe;
+  sp.colour = colour;
+  world.set_paint({lobe, sp});
+  sim::RenderOptions rgb;
+  rgb.mono = false;
+  sim::RenderOptions smooth_opt = rgb;
+  smooth_opt.sparkle = false;
+  const ImageF smooth = world.render_at(angle_deg, true, smooth_opt);
+  const ImageF sparkly = world.render_at(angle_deg, true, rgb);
+  const ImageF cov = world.sphere_coverage();
+  double peak = 0;
+  for (float v : smooth.values()) peak = std::max(peak, static_cast<double>(v));
+  Vec3 s_sum = Vec3::Zero(), f_sum = Vec3::Zero();
+  double c_sum = 0, c2_sum = 0;
+  std::size_t glints = 0;
+  for (std::size_t i = 0; i < cov.size(); ++i) {
+    if (cov.data()[i] < 1.0f || smooth.data()[3 * i] < 1e-3 * peak) continue;
+    Vec3 s(smooth.data()[3 * i], smooth.data()[3 * i + 1], smooth.data()[3 * i + 2]);
+    Vec3 f(sparkly.data()[3 * i], sparkly.data()[3 * i + 1], sparkly.data()[3 * i + 2]);
+    s_sum += s;
+    f_sum += f;
+    if (f.sum() > 3 * s.sum()) {
+      // The glint's own colour: what it adds to the smooth value, over the lobe's colour.
+      const Vec3 g = (f - s).cwiseQuotient(Vec3(1.0, 0.8, 0.6));
+      const double c = g[0] / g.sum();
+      c_sum += c;
+      c2_sum += c * c;
+      ++glints;
+    }
+  }
+  const double m = c_sum / std::max<std::size_t>(glints, 1);
+  return {f_sum.cwiseQuotient(s_sum), std::sqrt(std::max(0.0, c2_sum / std::max<std::size_t>(glints, 1) - m * m)),
+          glints};
+}
+
+}  // namespace
+
+TEST(SparkleColour, ColouredFlakesKeepTheAverageAndColourTheGlints) {
+  const ColourRun grey = colour_run(sim::FlakeColour{}, 10.0);
+  sim::FlakeColour colour;
+  colour.tint_sd = 0.3;
+  colour.interference = 0.2;
+  const ColourRun tinted = colour_run(colour, 10.0);
+  std::printf("grey: ratio %.4f %.4f %.4f, glint chroma sd %.4f (%zu glints); tinted: ratio %.4f %.4f %.4f, sd %.4f\n",
+              grey.ratio[0], grey.ratio[1], grey.ratio[2], grey.glint_chroma_sd, grey.glints, tinted.ratio[0],
+              tinted.ratio[1], tinted.ratio[2], tinted.glint_chroma_sd);
+  ASSERT_GT(grey.glints, 500u);
+  ASSERT_GT(tinted.glints, 500u);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(tinted.ratio[c], 1.0, 0.02) << "channel " << c;
+  EXPECT_LT(grey.glint_chroma_sd, 0.005);  // grey flakes: the glints have the lobe's colour
+  EXPECT_GT(tinted.glint_chroma_sd, 0.03);
+}

@@ -33,6 +33,19 @@ struct FlakeSpec {
   // except the narrowest (the clear coat), or the only lobe. Empty for layered-pearlescent,
   // whose glitter term is what the flakes carry.
   std::vector<int> lobes;
+  // The flakes' own colour (docs/paint-files.md "Flake colour"): a flake's glint is the carried
+  // part times its tint t = 1 + c (cos(psi) u + sin(psi) v), u and v the unit vectors of the
+  // RGB plane orthogonal to grey, so that the tints average to grey and the sparkle still
+  // averages to the BRDF. Ordinary flakes: (c cos psi, c sin psi) normal with this standard
+  // deviation per axis (c at most 1), [0, 1]; 0: grey flakes.
+  double tint_sd = 0.0;
+  // The fraction of interference flakes, [0, 1]: chroma interference_chroma, (0, 1], and a
+  // hue psi that turns by interference_shift_deg per degree of the angle between the light
+  // and the flake normal, [-90, 90] (a random start per flake).
+  double interference = 0.0;
+  double interference_chroma = 0.5;
+  double interference_shift_deg = 6.0;
+  bool coloured() const { return tint_sd > 0 || interference > 0; }
   bool operator==(const FlakeSpec&) const = default;
 };
 

@@ -30,8 +30,10 @@ inline constexpr const char* kAxfFormat = "paintlab-axf-like";
 // (attribute content_sha256). Version 3 (issue 14) states the colour space of the values in
 // /conventions "values": "linear sRGB (D65)" (a colour measurement, a paint file) or "linear
 // camera RGB" (a monochrome or uncalibrated camera; all that versions 1 and 2 could say).
-// Files of versions 1 and 2 are still read (as linear camera RGB).
-inline constexpr int kAxfFormatVersion = 3;
+// Files of versions 1 and 2 are still read (as linear camera RGB). Version 4 (issue 16) adds
+// the flakes' colour to /flakes (tint_sd, interference, interference_chroma,
+// interference_shift_deg: all four or none).
+inline constexpr int kAxfFormatVersion = 4;
 // The file holding a whole library (`paintlab library export --h5`): /paints/<name> groups,
 // each with the layout of one AxF-like file.
 inline constexpr const char* kAxfLibraryFormat = "paintlab-axf-library";

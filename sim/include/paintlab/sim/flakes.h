@@ -35,11 +35,38 @@ class FlakeCapTable {
   double step_;  // in sin(theta_h / 2)
 };
 
-// One flake: its place (unit vector from the sphere centre) and its normal, in the rig frame.
+// One flake: its place (unit vector from the sphere centre) and its normal, in the rig
+// frame, and random bits for its colour (draw_flake_tint), from a stream of their own.
 struct Flake {
   Vec3 position_dir;
   Vec3 normal;
+  std::uint64_t colour_bits = 0;
 };
+
+// The flakes' own colour (brdf::FlakeSpec, docs/paint-files.md "Flake colour"). A flake's
+// glint is the carried part of the BRDF times its tint t = 1 + c (cos(psi) u + sin(psi) v),
+// u = (2, -1, -1) / sqrt 6 and v = (0, 1, -1) / sqrt 2 the unit vectors of the RGB plane
+// orthogonal to grey. Ordinary flakes: (c cos psi, c sin psi) ~ N(0, tint_sd^2) per axis with
+// c clipped at 1 (symmetric, so the mean tint stays grey); interference flakes (a fraction
+// `interference`): c = interference_chroma and psi = psi_0 + shift * (angle between light and
+// flake normal), psi_0 uniform. Either way E[t] = (1, 1, 1) at every angle: the sparkle
+// averages to the BRDF whatever the colours, and t >= 1 - sqrt(2/3) > 0.
+struct FlakeColour {
+  double tint_sd = 0.0;
+  double interference = 0.0;
+  double interference_chroma = 0.5;
+  double interference_shift_deg = 6.0;
+  bool any() const { return tint_sd > 0 || interference > 0; }
+};
+
+struct FlakeTint {
+  double chroma = 0.0;   // c, [0, 1]
+  double hue_rad = 0.0;  // psi (interference flakes: psi_0)
+  bool interference = false;
+};
+FlakeTint draw_flake_tint(std::uint64_t colour_bits, const FlakeColour& colour);
+// t(c, psi) above.
+Vec3 flake_tint_rgb(double chroma, double hue_rad);
 
 // The flakes on a sphere of radius r: flakes_per_m2 on average. Cells are equal-area
 // (z, phi) bins (Archimedes), each with a Poisson number of uniformly placed flakes.

@@ -26,6 +26,7 @@
 #include "paintlab/core/image.h"
 #include "paintlab/sim/camera_model.h"
 #include "paintlab/sim/config.h"
+#include "paintlab/sim/flakes.h"
 #include "paintlab/sim/sensor.h"
 #include "paintlab/sim/virtual_clock.h"
 
@@ -37,6 +38,7 @@ struct Sparkle {
   double density = 0.5;       // flakes per pixel footprint at the reference distance
   double roughness = 0.15;    // Beckmann m of the flake normals
   double lifetime_deg = 6.5;  // a flake glints while angle(normal, h) < lifetime
+  FlakeColour colour;         // the flakes' own colour (flakes.h); default grey
   std::shared_ptr<const brdf::Brdf> flake_part;
   // Optional: the rest of the BRDF (brdf - flake_part), which makes rendering faster.
   std::shared_ptr<const brdf::Brdf> steady_part;
