@@ -1,5 +1,6 @@
 #include "paintlab/fitting/extraction.h"
 
+#include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
@@ -43,6 +44,50 @@ void ExtractionOptions::check() const {
 }
 
 namespace {
+
+// The radiance channels of an HDR image (hdr_merge.h): mono "Y" (in all three) or "R", "G",
+// "B", their "var.*" variances when all are there, and "valid".
+struct HdrChannels {
+  std::array<const ImageF*, 3> value{};
+  std::array<const ImageF*, 3> variance{};
+  bool with_variance = false;
+  const ImageF* valid = nullptr;
+  bool mono() const { return value[0] == value[1]; }
+};
+
+HdrChannels hdr_channels(const ExrImage& hdr, const std::string& source) {
+  HdrChannels ch;
+  if (const ImageF* y = hdr.find("Y")) {
+    ch.value = {y, y, y};
+    const ImageF* v = hdr.find("var.Y");
+    ch.variance = {v, v, v};
+  } else if (hdr.find("R") && hdr.find("G") && hdr.find("B")) {
+    const char* names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; ++c) {
+      ch.value[static_cast<std::size_t>(c)] = hdr.find(names[c]);
+      ch.variance[static_cast<std::size_t>(c)] = hdr.find(std::string("var.") + names[c]);
+    }
+  } else {
+    throw DataError(fmt::format("{}: no radiance channels (expected Y, or R, G and B)", source));
+  }
+  ch.with_variance = ch.variance[0] && ch.variance[1] && ch.variance[2];
+  ch.valid = hdr.find("valid");
+  return ch;
+}
+
+// Whether a pixel of a width x height image has an invalid pixel ("valid" channel) within
+// vm pixels (a square), or is closer than vm to the border.
+bool near_invalid_pixel(const ImageF* valid, std::size_t i, int width, int height, int vm) {
+  if (!valid || vm <= 0) return false;
+  const int x = static_cast<int>(i % static_cast<std::size_t>(width)), y = static_cast<int>(i / static_cast<std::size_t>(width));
+  if (x < vm || y < vm || x + vm >= width || y + vm >= height) return true;
+  for (int dy = -vm; dy <= vm; ++dy) {
+    const float* row = valid->data() + static_cast<std::size_t>(y + dy) * static_cast<std::size_t>(width);
+    for (int dx = -vm; dx <= vm; ++dx)
+      if (!(row[x + dx] > 0.5f)) return true;
+  }
+  return false;
+}
 
 // The colour (0 R, 1 G, 2 B) of each site of the top-left 2x2 block, row by row, of a
 // GenICam Bayer arrangement as paintlab.cfa names it ("RG": R G / G B); empty otherwise.
@@ -172,29 +217,80 @@ ExtractionStats SphereSampler::extract_sites(const ExrImage& hdr, double table_a
   return extract_into(hdr, table_angle_deg, nullptr, &out, source);
 }
 
+ExtractionStats SphereSampler::for_each_value(const ExrImage& hdr, double table_angle_deg,
+                                              const std::function<void(const PixelValue&)>& f,
+                                              const std::string& source) const {
+  if (hdr.width != width_ || hdr.height != height_)
+    throw DataError(fmt::format("{}: {} x {} pixels, but the calibrated camera has {} x {}", source, hdr.width,
+                                hdr.height, width_, height_));
+  const HdrChannels ch = hdr_channels(hdr, source);
+  const calib::LightModel light = cal_->light_model();
+  const calib::ScaleCalibration& scale = *cal_->scale();
+  const Vec3 led = light.led_position_cam(table_angle_deg);
+  auto near_invalid = [&](std::size_t i) { return near_invalid_pixel(ch.valid, i, width_, height_, options_.valid_margin_px); };
+  tbb::combinable<ExtractionStats> counts;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pixels_.size(), 4096), [&](const auto& r) {
+    ExtractionStats& st = counts.local();
+    for (std::size_t k = r.begin(); k != r.end(); ++k) {
+      const Pixel& p = pixels_[k];
+      ++st.sphere_pixels;
+      const std::size_t i = p.index;
+      if (ch.valid && !(ch.valid->data()[i] > 0.5f)) {
+        ++st.invalid;
+        continue;
+      }
+      PixelValue v;
+      v.pixel = static_cast<std::uint32_t>(k);
+      bool finite = true;
+      for (std::size_t c = 0; c < 3; ++c) {
+        v.rgb[c] = ch.value[c]->data()[i];
+        v.var[c] = ch.with_variance ? ch.variance[c]->data()[i] : 0.0;
+        finite = finite && std::isfinite(v.rgb[c]) && std::isfinite(v.var[c]);
+      }
+      if (!finite) {
+        ++st.non_finite;
+        continue;
+      }
+      const Vec3 point = p.point.cast<double>(), n = p.normal.cast<double>(), wo = p.to_camera.cast<double>();
+      const Vec3 wi = (led - point).normalized();
+      const double e = light.irradiance(table_angle_deg, point, n);
+      if (n.dot(wi) < options_.min_cos || n.dot(wo) < options_.min_cos || !(e > 0.0)) {
+        ++st.grazing;
+        continue;
+      }
+      if (near_invalid(i)) {
+        ++st.near_invalid;
+        continue;
+      }
+      const double to_brdf = scale.brdf(1.0, e);
+      for (std::size_t c = 0; c < 3; ++c) {
+        v.rgb[c] *= to_brdf;
+        v.var[c] *= to_brdf * to_brdf;
+      }
+      const Mat3 frame = frame_from_normal(n);
+      v.wi = frame.transpose() * wi;
+      v.wo = frame.transpose() * wo;
+      v.h_cam = (wi + wo).normalized();
+      ++st.samples;
+      f(v);
+    }
+  });
+  ExtractionStats total;
+  total.images = 1;
+  counts.combine_each([&](const ExtractionStats& s) { total.add(s); });
+  return total;
+}
+
 ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_angle_deg, SampleBatch* out_one,
                                             std::array<SampleBatch, 3>* sites, const std::string& source) const {
   if (hdr.width != width_ || hdr.height != height_)
     throw DataError(fmt::format("{}: {} x {} pixels, but the calibrated camera has {} x {}", source, hdr.width,
                                 hdr.height, width_, height_));
-  // Channels: mono "Y" or RGB (hdr_merge.h).
-  const ImageF* value[3] = {nullptr, nullptr, nullptr};
-  const ImageF* variance[3] = {nullptr, nullptr, nullptr};
-  if (const ImageF* y = hdr.find("Y")) {
-    value[0] = value[1] = value[2] = y;
-    const ImageF* v = hdr.find("var.Y");
-    variance[0] = variance[1] = variance[2] = v;
-  } else if (hdr.find("R") && hdr.find("G") && hdr.find("B")) {
-    const char* names[3] = {"R", "G", "B"};
-    for (int c = 0; c < 3; ++c) {
-      value[c] = hdr.find(names[c]);
-      variance[c] = hdr.find(std::string("var.") + names[c]);
-    }
-  } else {
-    throw DataError(fmt::format("{}: no radiance channels (expected Y, or R, G and B)", source));
-  }
-  const bool with_variance = variance[0] && variance[1] && variance[2];
-  const ImageF* valid = hdr.find("valid");
+  const HdrChannels channels = hdr_channels(hdr, source);
+  const ImageF* const* value = channels.value.data();
+  const ImageF* const* variance = channels.variance.data();
+  const bool with_variance = channels.with_variance;
+  const ImageF* valid = channels.valid;
   std::array<int, 4> block{};
   SiteInverse inverse;
   if (sites) {
@@ -337,18 +433,7 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
   // Censoring at the noise floor and spill from saturated pixels: next to pixels the merge
   // marked invalid, a valid pixel is there because its noise lifted it over the floor (a
   // bright bias at the terminator), or it holds light spilled from a saturated neighbour.
-  const int vm = options_.valid_margin_px;
-  auto near_invalid = [&](std::size_t i) {
-    if (!valid || vm <= 0) return false;
-    const int x = static_cast<int>(i % static_cast<std::size_t>(width_)), y = static_cast<int>(i / static_cast<std::size_t>(width_));
-    if (x < vm || y < vm || x + vm >= width_ || y + vm >= height_) return true;
-    for (int dy = -vm; dy <= vm; ++dy) {
-      const float* row = valid->data() + static_cast<std::size_t>(y + dy) * static_cast<std::size_t>(width_);
-      for (int dx = -vm; dx <= vm; ++dx)
-        if (!(row[x + dx] > 0.5f)) return true;
-    }
-    return false;
-  };
+  auto near_invalid = [&](std::size_t i) { return near_invalid_pixel(valid, i, width_, height_, options_.valid_margin_px); };
   std::vector<Value> values;
   values.reserve(pixels_.size());
   const bool local = options_.variance == VarianceModel::Local;

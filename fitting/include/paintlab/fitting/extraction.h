@@ -25,6 +25,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -137,6 +138,21 @@ class SphereSampler {
   // calibration to invert.
   ExtractionStats extract_sites(const ExrImage& hdr, double table_angle_deg, std::array<SampleBatch, 3>& out,
                                 const std::string& source = "HDR image") const;
+  // One usable sphere pixel of an image (flake extraction, flakes.h): `pixel` its index in
+  // [0, pixel_count()) (the same pixel in every image), wi and wo in its shading frame (z the
+  // normal), h_cam their half vector in the camera frame, the BRDF (1/sr) and its variance.
+  struct PixelValue {
+    std::uint32_t pixel;
+    Vec3 wi, wo, h_cam;
+    std::array<double, 3> rgb, var;
+  };
+  // Calls f for every pixel extract() would take (the same rules for invalid, non-finite,
+  // grazing and near-invalid pixels), but as measured: no lens-blur correction, the HDR
+  // variance (a glint is the structure both would smooth). f is called from several threads
+  // at once. Returns the counts; DataError naming `source` as extract().
+  ExtractionStats for_each_value(const ExrImage& hdr, double table_angle_deg,
+                                 const std::function<void(const PixelValue&)>& f,
+                                 const std::string& source = "HDR image") const;
   // cfa_sites: the linear map from the camera RGB of the site tables to the linear sRGB of
   // the session (the colour calibration's balanced matrix times the white balance), with
   // which a model fitted at the sites becomes the paint; unset without a matrix colour

@@ -1,0 +1,140 @@
+#pragma once
+// Flake statistics of a session (docs/sparkle.md). The smooth fitted model is the flakes'
+// average; what a pixel shows above it is sparkle. For every usable sphere pixel of every
+// HDR image (the samples extraction sees, extraction.h) the measured BRDF is compared with
+// the model's at the pixel's directions; a pixel glints where its excess over the model is
+// above both `threshold_sigma` standard deviations of the HDR merge's noise (with the
+// model's relative error `model_error` added to it) and `threshold_ratio` times the model.
+//
+// The statistics are kept per slice of the refracted directions (the AxF car-paint
+// model's flake BTF layout, models.md): ibar and obar, wi and wo refracted by the clear coat
+// (index `ior`), hbar their half vector; theta_F = angle(hbar, n), theta_I = angle(hbar,
+// ibar); slice (f, i) with f = floor(num_theta_f * 2 theta_F / pi), i likewise for theta_I
+// (the SDK's convention, without Unity's +0.5). Per slice:
+//  - the sparkle area: glinting pixels / pixels looked at;
+//  - the glint intensity: the excess over the model relative to the model (luminance; the
+//    contrast), its mean and quantiles;
+//  - the glint colours in CIELAB (of pi times the excess BRDF, a radiance factor: the white
+//    diffuser is L* 100): an octree over the slice's colour box reduced to at most
+//    `clusters` leaves (Golla and Klein 2017), each a cuboid (the box of its colours) with
+//    its mean and probability, and an inverse-CDF table of `cdf_steps` cluster indices;
+//  - the glint lifetime: a run of n consecutive light positions in which a pixel glints is
+//    a chord of length n d through a flake's cone of half-angle delta (d: the pixel's half-
+//    vector step between positions, in air); chords across a cone at random offsets average
+//    pi delta / 2, so delta = (2 / pi) mean(n d).
+// Instrument-style numbers (sparkle area and intensity under directional light at 15, 45
+// and 75 deg, viewed along the normal) come from the pixels whose geometry is within
+// `instrument_tolerance_deg` of that (docs/sparkle.md "Instrument numbers").
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "paintlab/brdf/brdf.h"
+#include "paintlab/calibration/rig_calibration.h"
+#include "paintlab/core/colour.h"
+#include "paintlab/core/json.h"
+#include "paintlab/fitting/extraction.h"
+
+namespace paintlab::fit {
+
+struct FlakeOptions {
+  double ior = 1.5;              // the clear coat's, for the refracted directions, [1, 3]
+  int num_theta_f = 12;          // slices over theta_F in [0, 90) deg, [1, 64]
+  int num_theta_i = 12;          // and over theta_I; num_theta_f * num_theta_i < 256 (8-bit LUT)
+  double threshold_sigma = 5.0;  // a glint's excess: at least this many standard deviations, > 0
+  double threshold_ratio = 0.5;  // and at least this part of the model, > 0
+  double model_error = 0.05;     // the model's relative error added to the noise, >= 0
+  int clusters = 50;             // colour clusters per slice, [1, 255]
+  int cdf_steps = 500;           // inverse-CDF entries per slice, [2, 100000]
+  int min_glints = 20;           // slices with fewer glints get no colour clusters, >= 1
+  double instrument_tolerance_deg = 5.0;  // (0, 30]
+  int threads = 0;               // 0 = all cores
+  void check() const;            // DataError naming the first violated rule
+};
+
+// One colour cluster: the box of its colours, their mean, its probability in the slice.
+struct FlakeCluster {
+  colour::Lab lo, hi, mean;
+  double probability = 0.0;
+  std::uint64_t count = 0;
+};
+
+struct FlakeSlice {
+  int theta_f = 0, theta_i = 0;      // bin indices
+  std::uint64_t pixels = 0;          // pixel samples looked at
+  std::uint64_t glints = 0;
+  double area() const { return pixels ? static_cast<double>(glints) / static_cast<double>(pixels) : 0.0; }
+  double intensity_mean = 0.0;       // mean contrast (excess / model, luminance) of the glints
+  std::array<double, 5> intensity_quantiles{};  // 10, 25, 50, 75, 90 %
+  std::vector<FlakeCluster> clusters;           // probabilities sum to 1; empty below min_glints
+  std::vector<std::uint8_t> inverse_cdf;        // cdf_steps cluster indices
+  std::uint64_t runs = 0;            // glint runs whose middle falls in the slice
+  double lifetime_deg = 0.0;         // from those runs (0 without)
+};
+
+// Sparkle area and intensity at an instrument geometry.
+struct InstrumentSparkle {
+  double illumination_deg = 0.0;
+  std::uint64_t pixels = 0;          // pixel samples within the tolerance
+  std::uint64_t glints = 0;
+  double area_percent = 0.0;         // glints / pixels x 100
+  double intensity = 0.0;            // mean contrast of those glints
+  bool measured() const { return pixels > 0; }
+};
+
+struct FlakeStats {
+  FlakeOptions options;
+  std::string colour_space;          // of the session's values (colour::kLinearSrgb, kCameraRgb)
+  bool mono = false;                 // a monochrome session: colours are L* only
+  std::uint64_t images = 0;
+  std::uint64_t pixels = 0;          // pixel samples compared with the model
+  std::uint64_t glints = 0;
+  std::uint64_t runs = 0;
+  double lifetime_deg = 0.0;         // of all runs
+  double step_deg = 0.0;             // median half-vector step between consecutive positions
+  std::vector<FlakeSlice> slices;    // theta_i-major; only slices with pixels
+  std::vector<InstrumentSparkle> instrument;  // at 15, 45, 75 deg
+  double area() const { return pixels ? static_cast<double>(glints) / static_cast<double>(pixels) : 0.0; }
+  // No glint anywhere: a paint without flakes (nothing to export).
+  bool empty() const { return glints == 0; }
+  const FlakeSlice* slice(int theta_f, int theta_i) const;
+};
+
+// The slice indices of refracted directions (theta_F, theta_I from wi, wo in the shading
+// frame, z the normal): {f, i}, each in [0, num).
+std::array<int, 2> flake_slice_of(const Vec3& wi, const Vec3& wo, double ior, int num_theta_f, int num_theta_i);
+
+// Octree colour reduction of a slice's glint colours to at most `clusters` leaves, and the
+// inverse CDF of their probabilities (FlakeSlice::clusters, inverse_cdf).
+void cluster_flake_colours(const std::vector<colour::Lab>& colours, int clusters, int cdf_steps,
+                           std::vector<FlakeCluster>* out, std::vector<std::uint8_t>* inverse_cdf);
+
+// The statistics of `frames` (in sweep order) against `model`. `colour_space` names the
+// values; progress is logged per image.
+FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
+                          const brdf::Brdf& model, const FlakeOptions& options = {},
+                          const ExtractionOptions& extraction = {});
+
+// A session's flakes (`paintlab flakes SESSION`): its finished positions in sweep order,
+// its calibration (calib_dir, default: its rig's), against the model of `fit_file` (a
+// fit.json, .axf.h5 or paint .toml) or, without one, a Cook-Torrance fit of `lobes` lobes
+// made now from the session's binned table.
+struct SessionFlakeOptions {
+  FlakeOptions flakes;
+  ExtractionOptions extraction;
+  std::filesystem::path fit_file;
+  int lobes = 3;
+  std::optional<std::filesystem::path> calib_dir;
+};
+FlakeStats session_flakes(const std::filesystem::path& session_dir, const SessionFlakeOptions& options);
+
+// flakes.json: {"format": "paintlab-flakes", "format_version": 1, ...} (docs/sparkle.md).
+Json flakes_to_json(const FlakeStats& stats);
+FlakeStats flakes_from_json(const Json& j, const std::string& where);
+// A summary for people: the figures, the instrument numbers, the busiest slices.
+std::string describe_flakes(const FlakeStats& stats);
+
+}  // namespace paintlab::fit

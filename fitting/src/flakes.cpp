@@ -1,0 +1,635 @@
+#include "paintlab/fitting/flakes.h"
+
+#include <tbb/combinable.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <fmt/format.h>
+#include <map>
+#include <numeric>
+
+#include "paintlab/core/error.h"
+#include "paintlab/core/geometry.h"
+#include "paintlab/core/log.h"
+#include "paintlab/core/image_io.h"
+#include "paintlab/core/progress.h"
+#include "paintlab/fitting/export.h"
+#include "paintlab/fitting/pipeline.h"
+#include "paintlab/fitting/session_binning.h"
+
+namespace paintlab::fit {
+
+namespace {
+
+constexpr const char* kFlakesFormat = "paintlab-flakes";
+constexpr int kFlakesFormatVersion = 1;
+constexpr std::array<double, 3> kInstrumentAngles = {15.0, 45.0, 75.0};
+constexpr std::array<double, 5> kQuantiles = {0.10, 0.25, 0.50, 0.75, 0.90};
+
+// A direction in air (z > 0) refracted into a coat of index `ior`, still pointing away from
+// the surface: the tangential part divided by the index.
+Vec3 refract_up(const Vec3& w, double ior) {
+  const double x = w.x() / ior, y = w.y() / ior;
+  return Vec3(x, y, std::sqrt(std::max(0.0, 1.0 - x * x - y * y)));
+}
+
+int bin_of(double theta, int num) {
+  const int b = static_cast<int>(std::floor(num * theta / (0.5 * kPi)));
+  return std::clamp(b, 0, num - 1);
+}
+
+double angle_between_units(const Vec3& a, const Vec3& b) {
+  // atan2 of the cross and dot products: accurate for small angles too.
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+// One glint of a slice: its contrast and colour.
+struct Glint {
+  float contrast;
+  colour::Lab lab;
+};
+
+// What a thread gathers for one slice.
+struct SliceAcc {
+  std::uint64_t pixels = 0;
+  std::vector<Glint> glints;
+  std::uint64_t runs = 0;
+  double chord_sum_rad = 0.0;
+};
+
+struct InstrumentAcc {
+  std::uint64_t pixels = 0, glints = 0;
+  double contrast_sum = 0.0;
+};
+
+struct ThreadAcc {
+  std::vector<SliceAcc> slices;
+  std::array<InstrumentAcc, 3> instrument{};
+  double step_sum = 0.0;
+  std::uint64_t steps = 0;
+  explicit ThreadAcc(std::size_t n) : slices(n) {}
+};
+
+// A pixel across the sweep: its run of glinting positions so far.
+struct PixelTrack {
+  std::int32_t last_seen = -2;   // frame index
+  std::int32_t last_glint = -2;
+  std::int32_t run_len = 0;
+  std::int16_t run_slice = -1;
+  float last_step = 0.0f;        // rad, half vector between the last two positions seen
+  Eigen::Vector3f h{0.0f, 0.0f, 0.0f};
+};
+
+}  // namespace
+
+void FlakeOptions::check() const {
+  auto fail = [](const char* key, double v, const char* rule) {
+    throw OptionError(std::string("FlakeOptions::") + key, fmt::format("{}", v), rule);
+  };
+  if (!(ior >= 1.0 && ior <= 3.0)) fail("ior", ior, "in [1, 3]");
+  if (num_theta_f < 1 || num_theta_f > 64) fail("num_theta_f", num_theta_f, "in [1, 64]");
+  if (num_theta_i < 1 || num_theta_i > 64) fail("num_theta_i", num_theta_i, "in [1, 64]");
+  if (num_theta_f * num_theta_i >= 256)
+    fail("num_theta_f x num_theta_i", num_theta_f * num_theta_i, "below 256 (the slice LUT is 8-bit)");
+  if (!(threshold_sigma > 0.0)) fail("threshold_sigma", threshold_sigma, "> 0");
+  if (!(threshold_ratio > 0.0)) fail("threshold_ratio", threshold_ratio, "> 0");
+  if (!(model_error >= 0.0)) fail("model_error", model_error, ">= 0");
+  if (clusters < 1 || clusters > 255) fail("clusters", clusters, "in [1, 255]");
+  if (cdf_steps < 2 || cdf_steps > 100000) fail("cdf_steps", cdf_steps, "in [2, 100000]");
+  if (min_glints < 1) fail("min_glints", min_glints, ">= 1");
+  if (!(instrument_tolerance_deg > 0.0 && instrument_tolerance_deg <= 30.0))
+    fail("instrument_tolerance_deg", instrument_tolerance_deg, "in (0, 30]");
+  if (threads < 0) fail("threads", threads, ">= 0");
+}
+
+const FlakeSlice* FlakeStats::slice(int theta_f, int theta_i) const {
+  for (const FlakeSlice& s : slices)
+    if (s.theta_f == theta_f && s.theta_i == theta_i) return &s;
+  return nullptr;
+}
+
+std::array<int, 2> flake_slice_of(const Vec3& wi, const Vec3& wo, double ior, int num_theta_f, int num_theta_i) {
+  const Vec3 i = refract_up(wi.normalized(), ior), o = refract_up(wo.normalized(), ior);
+  const Vec3 h = (i + o).normalized();
+  const double theta_f = std::acos(std::clamp(h.z(), -1.0, 1.0));
+  const double theta_i = angle_between_units(h, i);
+  return {bin_of(theta_f, num_theta_f), bin_of(theta_i, num_theta_i)};
+}
+
+void cluster_flake_colours(const std::vector<colour::Lab>& colours, int clusters, int cdf_steps,
+                           std::vector<FlakeCluster>* out, std::vector<std::uint8_t>* inverse_cdf) {
+  out->clear();
+  inverse_cdf->clear();
+  if (colours.empty()) return;
+  // The octree over the colours' box, 6 levels (64 cells a side).
+  constexpr int kDepth = 6;
+  constexpr int kSide = 1 << kDepth;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
+  for (const colour::Lab& c : colours) {
+    const Eigen::Vector3d v(c.L, c.a, c.b);
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  const Eigen::Vector3d extent = (hi - lo).cwiseMax(1e-9);
+  struct Node {
+    std::array<std::int32_t, 8> child;
+    int level;
+    std::uint64_t count = 0;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
+    bool leaf() const {
+      return std::all_of(child.begin(), child.end(), [](std::int32_t c) { return c < 0; });
+    }
+  };
+  std::vector<Node> nodes;
+  auto make = [&](int level) {
+    Node n;
+    n.child.fill(-1);
+    n.level = level;
+    nodes.push_back(n);
+    return static_cast<std::int32_t>(nodes.size() - 1);
+  };
+  make(0);
+  for (const colour::Lab& c : colours) {
+    const Eigen::Vector3d v(c.L, c.a, c.b);
+    std::array<int, 3> q{};
+    for (int k = 0; k < 3; ++k)
+      q[static_cast<std::size_t>(k)] = std::clamp(static_cast<int>((v[k] - lo[k]) / extent[k] * kSide), 0, kSide - 1);
+    std::int32_t at = 0;
+    for (int level = 0;; ++level) {
+      Node& n = nodes[static_cast<std::size_t>(at)];
+      n.count += 1;
+      n.sum += v;
+      n.lo = n.lo.cwiseMin(v);
+      n.hi = n.hi.cwiseMax(v);
+      if (level == kDepth) break;
+      const int shift = kDepth - 1 - level;
+      const int idx = (((q[0] >> shift) & 1) << 2) | (((q[1] >> shift) & 1) << 1) | ((q[2] >> shift) & 1);
+      std::int32_t next = n.child[static_cast<std::size_t>(idx)];
+      if (next < 0) {
+        next = make(level + 1);  // may move `nodes`: n is not used after this
+        nodes[static_cast<std::size_t>(at)].child[static_cast<std::size_t>(idx)] = next;
+      }
+      at = next;
+    }
+  }
+  // Reduction: merge the children of the deepest nodes, smallest first, until at most
+  // `clusters` leaves are left (a node whose children are merged becomes a leaf).
+  std::size_t leaves = 0;
+  for (const Node& n : nodes) leaves += n.leaf() ? 1 : 0;
+  for (int level = kDepth - 1; level >= 0 && leaves > static_cast<std::size_t>(clusters); --level) {
+    std::vector<std::int32_t> at_level;
+    for (std::size_t i = 0; i < nodes.size(); ++i)
+      if (nodes[i].level == level && !nodes[i].leaf()) at_level.push_back(static_cast<std::int32_t>(i));
+    std::stable_sort(at_level.begin(), at_level.end(), [&](std::int32_t a, std::int32_t b) {
+      return nodes[static_cast<std::size_t>(a)].count < nodes[static_cast<std::size_t>(b)].count;
+    });
+    for (std::int32_t i : at_level) {
+      if (leaves <= static_cast<std::size_t>(clusters)) break;
+      Node& n = nodes[static_cast<std::size_t>(i)];
+      std::size_t kids = 0;
+      for (std::int32_t& c : n.child)
+        if (c >= 0) {
+          ++kids;
+          c = -1;
+        }
+      leaves -= kids - 1;
+    }
+  }
+  // The leaves reachable from the root.
+  std::vector<std::int32_t> stack = {0};
+  const double total = static_cast<double>(colours.size());
+  while (!stack.empty()) {
+    const Node& n = nodes[static_cast<std::size_t>(stack.back())];
+    stack.pop_back();
+    if (n.leaf()) {
+      FlakeCluster c;
+      c.count = n.count;
+      c.probability = static_cast<double>(n.count) / total;
+      const Eigen::Vector3d m = n.sum / static_cast<double>(n.count);
+      c.mean = {m[0], m[1], m[2]};
+      c.lo = {n.lo[0], n.lo[1], n.lo[2]};
+      c.hi = {n.hi[0], n.hi[1], n.hi[2]};
+      out->push_back(c);
+      continue;
+    }
+    for (std::int32_t c : n.child)
+      if (c >= 0) stack.push_back(c);
+  }
+  std::stable_sort(out->begin(), out->end(),
+                   [](const FlakeCluster& a, const FlakeCluster& b) { return a.probability > b.probability; });
+  // Inverse CDF: entry k is the cluster where the cumulative probability passes (k + 0.5) / steps.
+  inverse_cdf->resize(static_cast<std::size_t>(cdf_steps));
+  double cum = 0.0;
+  std::size_t c = 0;
+  for (int k = 0; k < cdf_steps; ++k) {
+    const double u = (k + 0.5) / cdf_steps;
+    while (c + 1 < out->size() && cum + (*out)[c].probability < u) cum += (*out)[c++].probability;
+    (*inverse_cdf)[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(c);
+  }
+}
+
+FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
+                          const brdf::Brdf& model, const FlakeOptions& options, const ExtractionOptions& extraction) {
+  options.check();
+  if (frames.empty()) throw DataError("flake extraction: no HDR images");
+  ExtractionOptions ex = extraction;
+  ex.cfa_sites = false;
+  ex.blur_sigma_px = 0.0;
+  const SphereSampler sampler(calibration, ex);
+  const int nf = options.num_theta_f, ni = options.num_theta_i;
+  const std::size_t n_slices = static_cast<std::size_t>(nf) * static_cast<std::size_t>(ni);
+  auto slice_index = [&](const std::array<int, 2>& s) { return static_cast<std::size_t>(s[1]) * nf + s[0]; };
+
+  FlakeStats out;
+  out.options = options;
+  std::vector<PixelTrack> track(sampler.pixel_count());
+  tbb::combinable<ThreadAcc> acc([&] { return ThreadAcc(n_slices); });
+  const double tol = deg_to_rad(options.instrument_tolerance_deg);
+  const Eigen::Vector3d lum_srgb(0.2126, 0.7152, 0.0722);
+  Eigen::Vector3d lum = lum_srgb;
+  // A run of glints ends: one chord of run_len steps, in the slice where it lit up.
+  auto close_run = [&](ThreadAcc& a, const PixelTrack& t) {
+    if (t.run_len <= 0 || t.run_slice < 0) return;
+    SliceAcc& s = a.slices[static_cast<std::size_t>(t.run_slice)];
+    s.runs += 1;
+    s.chord_sum_rad += t.run_len * static_cast<double>(t.last_step);
+  };
+
+  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  Progress progress("flakes", static_cast<long>(frames.size()), "img");
+  for (std::size_t fi = 0; fi < frames.size(); ++fi) {
+    const HdrFrame& frame = frames[fi];
+    const ExrImage hdr = read_exr(frame.path);
+    if (fi == 0) {
+      out.mono = hdr.find("Y") != nullptr;
+      const auto it = hdr.attributes.find("paintlab.colour_space");
+      out.colour_space = it == hdr.attributes.end() || it->second.empty() ? colour::kCameraRgb : it->second;
+      if (out.mono) lum = Eigen::Vector3d(1.0, 0.0, 0.0);
+    }
+    const auto t = static_cast<std::int32_t>(fi);
+    ExtractionStats st;
+    arena.execute([&] {
+      st = sampler.for_each_value(hdr, frame.angle_deg, [&](const SphereSampler::PixelValue& v) {
+        ThreadAcc& a = acc.local();
+        PixelTrack& tr = track[v.pixel];
+        const Eigen::Vector3f h = v.h_cam.cast<float>();
+        if (tr.last_seen == t - 1) {
+          tr.last_step = static_cast<float>(angle_between_units(tr.h.cast<double>(), v.h_cam));
+          a.step_sum += tr.last_step;
+          a.steps += 1;
+        } else if (tr.run_len > 0) {  // a gap (an invalid position) ends a run unseen: drop it
+          tr.run_len = 0;
+        }
+        tr.last_seen = t;
+        tr.h = h;
+        const brdf::Rgb m = model.eval(v.wi, v.wo);
+        const Eigen::Vector3d meas(v.rgb[0], v.rgb[1], v.rgb[2]);
+        const Eigen::Vector3d var(v.var[0], v.var[1], v.var[2]);
+        const Eigen::Vector3d mod(m[0], m[1], m[2]);
+        const double l_model = lum.dot(mod), l_excess = lum.dot(meas - mod);
+        const double sigma = std::sqrt(lum.cwiseProduct(lum).dot(var) +
+                                       std::pow(options.model_error * l_model, 2));
+        const bool glint = l_model > 0.0 && l_excess > options.threshold_sigma * sigma &&
+                           l_excess > options.threshold_ratio * l_model;
+        const std::size_t si = slice_index(flake_slice_of(v.wi, v.wo, options.ior, nf, ni));
+        SliceAcc& s = a.slices[si];
+        s.pixels += 1;
+        const double contrast = l_model > 0.0 ? l_excess / l_model : 0.0;
+        if (glint) {
+          const Eigen::Vector3d excess = (meas - mod).cwiseMax(0.0) * kPi;
+          const colour::Rgb rf = out.mono ? colour::Rgb::Constant(excess[0]) : colour::Rgb(excess);
+          s.glints.push_back({static_cast<float>(contrast), colour::srgb_to_lab(rf)});
+          if (tr.last_glint == t - 1 && tr.run_len > 0) {
+            tr.run_len += 1;
+          } else {
+            tr.run_len = 1;
+            // A run lit at the first position began before the sweep: cut short, left out.
+            tr.run_slice = t == 0 ? std::int16_t{-1} : static_cast<std::int16_t>(si);
+          }
+          tr.last_glint = t;
+        } else if (tr.run_len > 0) {
+          close_run(a, tr);
+          tr.run_len = 0;
+        }
+        // The instrument geometries: viewed along the normal, lit at 15, 45, 75 deg.
+        const double theta_o = std::acos(std::clamp(v.wo.z(), -1.0, 1.0));
+        if (theta_o <= tol) {
+          const double theta_i = std::acos(std::clamp(v.wi.z(), -1.0, 1.0));
+          for (std::size_t g = 0; g < kInstrumentAngles.size(); ++g) {
+            if (std::abs(theta_i - deg_to_rad(kInstrumentAngles[g])) > tol) continue;
+            InstrumentAcc& ia = a.instrument[g];
+            ia.pixels += 1;
+            if (glint) {
+              ia.glints += 1;
+              ia.contrast_sum += contrast;
+            }
+          }
+        }
+      }, frame.path.string());
+    });
+    out.images += 1;
+    progress.step(fmt::format("{:.1f} deg", frame.angle_deg));
+  }
+  // Runs still lit at the end of the sweep are cut short: left out like those cut by a gap.
+  // Gather.
+  std::vector<SliceAcc> slices(n_slices);
+  std::array<InstrumentAcc, 3> instrument{};
+  double step_sum = 0.0;
+  std::uint64_t steps = 0;
+  acc.combine_each([&](ThreadAcc& a) {
+    for (std::size_t i = 0; i < n_slices; ++i) {
+      SliceAcc& s = slices[i];
+      s.pixels += a.slices[i].pixels;
+      s.runs += a.slices[i].runs;
+      s.chord_sum_rad += a.slices[i].chord_sum_rad;
+      s.glints.insert(s.glints.end(), a.slices[i].glints.begin(), a.slices[i].glints.end());
+    }
+    for (std::size_t g = 0; g < 3; ++g) {
+      instrument[g].pixels += a.instrument[g].pixels;
+      instrument[g].glints += a.instrument[g].glints;
+      instrument[g].contrast_sum += a.instrument[g].contrast_sum;
+    }
+    step_sum += a.step_sum;
+    steps += a.steps;
+  });
+  out.step_deg = steps ? rad_to_deg(step_sum / static_cast<double>(steps)) : 0.0;
+  double chord_all = 0.0;
+  for (std::size_t i = 0; i < n_slices; ++i) {
+    SliceAcc& a = slices[i];
+    if (a.pixels == 0) continue;
+    FlakeSlice s;
+    s.theta_f = static_cast<int>(i % static_cast<std::size_t>(nf));
+    s.theta_i = static_cast<int>(i / static_cast<std::size_t>(nf));
+    s.pixels = a.pixels;
+    s.glints = a.glints.size();
+    s.runs = a.runs;
+    s.lifetime_deg = a.runs ? rad_to_deg(2.0 / kPi * a.chord_sum_rad / static_cast<double>(a.runs)) : 0.0;
+    if (!a.glints.empty()) {
+      std::vector<float> c(a.glints.size());
+      std::vector<colour::Lab> labs(a.glints.size());
+      // Sorted by contrast first so that the colour list (and the octree's ties) do not
+      // depend on the threads' order.
+      std::sort(a.glints.begin(), a.glints.end(), [](const Glint& x, const Glint& y) {
+        if (x.contrast != y.contrast) return x.contrast < y.contrast;
+        if (x.lab.L != y.lab.L) return x.lab.L < y.lab.L;
+        if (x.lab.a != y.lab.a) return x.lab.a < y.lab.a;
+        return x.lab.b < y.lab.b;
+      });
+      double sum = 0.0;
+      for (std::size_t k = 0; k < a.glints.size(); ++k) {
+        c[k] = a.glints[k].contrast;
+        labs[k] = a.glints[k].lab;
+        sum += c[k];
+      }
+      s.intensity_mean = sum / static_cast<double>(c.size());
+      for (std::size_t q = 0; q < kQuantiles.size(); ++q)
+        s.intensity_quantiles[q] = c[std::min(c.size() - 1, static_cast<std::size_t>(kQuantiles[q] * c.size()))];
+      if (s.glints >= static_cast<std::uint64_t>(options.min_glints))
+        cluster_flake_colours(labs, options.clusters, options.cdf_steps, &s.clusters, &s.inverse_cdf);
+    }
+    out.pixels += s.pixels;
+    out.glints += s.glints;
+    out.runs += s.runs;
+    chord_all += a.chord_sum_rad;
+    out.slices.push_back(std::move(s));
+  }
+  out.lifetime_deg = out.runs ? rad_to_deg(2.0 / kPi * chord_all / static_cast<double>(out.runs)) : 0.0;
+  for (std::size_t g = 0; g < 3; ++g) {
+    InstrumentSparkle is;
+    is.illumination_deg = kInstrumentAngles[g];
+    is.pixels = instrument[g].pixels;
+    is.glints = instrument[g].glints;
+    is.area_percent = is.pixels ? 100.0 * static_cast<double>(is.glints) / static_cast<double>(is.pixels) : 0.0;
+    is.intensity = is.glints ? instrument[g].contrast_sum / static_cast<double>(is.glints) : 0.0;
+    out.instrument.push_back(is);
+  }
+  return out;
+}
+
+FlakeStats session_flakes(const std::filesystem::path& session_dir, const SessionFlakeOptions& options) {
+  options.flakes.check();
+  const acq::SessionDir session = acq::SessionDir::open(session_dir);
+  acq::require_complete_session(session);
+  std::vector<HdrFrame> frames = session_frames(session);
+  std::stable_sort(frames.begin(), frames.end(),
+                   [](const HdrFrame& a, const HdrFrame& b) { return a.angle_deg < b.angle_deg; });
+  const calib::RigCalibration cal = acq::session_calibration(session, options.calib_dir);
+  std::unique_ptr<brdf::Brdf> model;
+  if (!options.fit_file.empty()) {
+    model = brdf::make_brdf(load_any_paint(options.fit_file).paint_spec());
+  } else {
+    spdlog::info("fitting a {}-lobe Cook-Torrance model to {} (give --fit FIT.json to use an existing fit)",
+                 options.lobes, session_dir.string());
+    SessionBinOptions bin;
+    bin.extraction = options.extraction;
+    bin.calib_dir = options.calib_dir;
+    const FitInput in = load_fit_input(session_dir, bin);
+    SharedFitOptions shared;
+    shared.lobes = options.lobes;
+    const FitOutcome fit = fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance,
+                                     FitRequest::with(FitModel::CookTorrance, paint_name_from(in.sample), shared),
+                                     in.input);
+    if (!fit.converged) spdlog::warn("the fit of {} did not converge ({})", session_dir.string(), fit.termination);
+    model = brdf::make_brdf(axf_from_fit_json(fit.fit, session_dir.string()).paint_spec());
+  }
+  spdlog::info("comparing {} HDR images of {} with the smooth model", frames.size(), session_dir.string());
+  return extract_flakes(frames, cal, *model, options.flakes, options.extraction);
+}
+
+namespace {
+
+Json lab_json(const colour::Lab& c) { return Json::array({c.L, c.a, c.b}); }
+
+colour::Lab lab_from(const Json& j, const std::string& where) {
+  if (!j.is_array() || j.size() != 3 || !j[0].is_number() || !j[1].is_number() || !j[2].is_number())
+    throw DataError(where + ": expected [L, a, b]");
+  return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+}
+
+}  // namespace
+
+Json flakes_to_json(const FlakeStats& s) {
+  const FlakeOptions& o = s.options;
+  Json slices = Json::array();
+  for (const FlakeSlice& sl : s.slices) {
+    Json clusters = Json::array();
+    for (const FlakeCluster& c : sl.clusters)
+      clusters.push_back({{"p", c.probability}, {"n", c.count}, {"mean", lab_json(c.mean)}, {"lo", lab_json(c.lo)},
+                          {"hi", lab_json(c.hi)}});
+    Json q = Json::array();
+    for (double v : sl.intensity_quantiles) q.push_back(v);
+    slices.push_back({{"theta_f", sl.theta_f},
+                      {"theta_i", sl.theta_i},
+                      {"pixels", sl.pixels},
+                      {"glints", sl.glints},
+                      {"area", sl.area()},
+                      {"intensity_mean", sl.intensity_mean},
+                      {"intensity_quantiles", q},
+                      {"runs", sl.runs},
+                      {"lifetime_deg", sl.lifetime_deg},
+                      {"clusters", clusters},
+                      {"inverse_cdf", sl.inverse_cdf}});
+  }
+  Json instrument = Json::array();
+  for (const InstrumentSparkle& is : s.instrument)
+    instrument.push_back({{"illumination_deg", is.illumination_deg},
+                          {"viewing_deg", 0.0},
+                          {"pixels", is.pixels},
+                          {"glints", is.glints},
+                          {"sparkle_area_percent", is.measured() ? Json(is.area_percent) : Json(nullptr)},
+                          {"sparkle_intensity", is.glints ? Json(is.intensity) : Json(nullptr)}});
+  Json q = Json::array();
+  for (double v : kQuantiles) q.push_back(v);
+  return {{"format", kFlakesFormat},
+          {"format_version", kFlakesFormatVersion},
+          {"colour_space", s.colour_space},
+          {"mono", s.mono},
+          {"options",
+           {{"ior", o.ior},
+            {"num_theta_f", o.num_theta_f},
+            {"num_theta_i", o.num_theta_i},
+            {"bin_convention", "floor(num * 2 theta / pi), no +0.5"},
+            {"threshold_sigma", o.threshold_sigma},
+            {"threshold_ratio", o.threshold_ratio},
+            {"model_error", o.model_error},
+            {"clusters", o.clusters},
+            {"cdf_steps", o.cdf_steps},
+            {"min_glints", o.min_glints},
+            {"instrument_tolerance_deg", o.instrument_tolerance_deg}}},
+          {"images", s.images},
+          {"pixels", s.pixels},
+          {"glints", s.glints},
+          {"area", s.area()},
+          {"empty", s.empty()},
+          {"runs", s.runs},
+          {"lifetime_deg", s.lifetime_deg},
+          {"step_deg", s.step_deg},
+          {"intensity_quantile_levels", q},
+          {"instrument", instrument},
+          {"slices", slices}};
+}
+
+FlakeStats flakes_from_json(const Json& j, const std::string& where) {
+  if (!j.is_object() || j.value("format", std::string()) != kFlakesFormat)
+    throw DataError(where + ": not a flakes file (format \"" + std::string(kFlakesFormat) + "\")");
+  const int version = json_get<int>(j, "format_version", where);
+  if (version > kFlakesFormatVersion)
+    throw DataError(fmt::format("{}: format_version {} is newer than this software reads ({}): update paintlab", where,
+                                version, kFlakesFormatVersion));
+  FlakeStats s;
+  const Json& o = j.at("options");
+  const std::string ow = where + ": options";
+  s.options.ior = json_get<double>(o, "ior", ow);
+  s.options.num_theta_f = json_get<int>(o, "num_theta_f", ow);
+  s.options.num_theta_i = json_get<int>(o, "num_theta_i", ow);
+  s.options.threshold_sigma = json_get<double>(o, "threshold_sigma", ow);
+  s.options.threshold_ratio = json_get<double>(o, "threshold_ratio", ow);
+  s.options.model_error = json_get<double>(o, "model_error", ow);
+  s.options.clusters = json_get<int>(o, "clusters", ow);
+  s.options.cdf_steps = json_get<int>(o, "cdf_steps", ow);
+  s.options.min_glints = json_get<int>(o, "min_glints", ow);
+  s.options.instrument_tolerance_deg = json_get<double>(o, "instrument_tolerance_deg", ow);
+  try {
+    s.options.check();
+  } catch (const OptionError& e) {
+    throw DataError(ow + ": " + e.what());
+  }
+  s.colour_space = json_get<std::string>(j, "colour_space", where);
+  s.mono = json_get<bool>(j, "mono", where);
+  s.images = json_get<std::uint64_t>(j, "images", where);
+  s.runs = json_get<std::uint64_t>(j, "runs", where);
+  s.lifetime_deg = json_get<double>(j, "lifetime_deg", where);
+  s.step_deg = json_get<double>(j, "step_deg", where);
+  if (!j.contains("slices") || !j.at("slices").is_array()) throw DataError(where + ": slices: expected an array");
+  std::size_t k = 0;
+  for (const Json& js : j.at("slices")) {
+    const std::string sw = fmt::format("{}: slices[{}]", where, k++);
+    FlakeSlice sl;
+    sl.theta_f = json_get<int>(js, "theta_f", sw);
+    sl.theta_i = json_get<int>(js, "theta_i", sw);
+    if (sl.theta_f < 0 || sl.theta_f >= s.options.num_theta_f || sl.theta_i < 0 || sl.theta_i >= s.options.num_theta_i)
+      throw DataError(fmt::format("{}: bin ({}, {}) outside the {} x {} slices", sw, sl.theta_f, sl.theta_i,
+                                  s.options.num_theta_f, s.options.num_theta_i));
+    sl.pixels = json_get<std::uint64_t>(js, "pixels", sw);
+    sl.glints = json_get<std::uint64_t>(js, "glints", sw);
+    if (sl.glints > sl.pixels) throw DataError(sw + ": more glints than pixels");
+    sl.intensity_mean = json_get<double>(js, "intensity_mean", sw);
+    const auto q = json_get<std::vector<double>>(js, "intensity_quantiles", sw);
+    if (q.size() != sl.intensity_quantiles.size())
+      throw DataError(fmt::format("{}: intensity_quantiles: expected {} values", sw, sl.intensity_quantiles.size()));
+    std::copy(q.begin(), q.end(), sl.intensity_quantiles.begin());
+    sl.runs = json_get<std::uint64_t>(js, "runs", sw);
+    sl.lifetime_deg = json_get<double>(js, "lifetime_deg", sw);
+    double p_sum = 0.0;
+    std::size_t ci = 0;
+    for (const Json& jc : js.at("clusters")) {
+      const std::string cw = fmt::format("{}: clusters[{}]", sw, ci++);
+      FlakeCluster c;
+      c.probability = json_get<double>(jc, "p", cw);
+      if (!(c.probability >= 0.0 && c.probability <= 1.0)) throw DataError(cw + ": p must be in [0, 1]");
+      c.count = json_get<std::uint64_t>(jc, "n", cw);
+      c.mean = lab_from(jc.at("mean"), cw + ": mean");
+      c.lo = lab_from(jc.at("lo"), cw + ": lo");
+      c.hi = lab_from(jc.at("hi"), cw + ": hi");
+      p_sum += c.probability;
+      sl.clusters.push_back(c);
+    }
+    if (!sl.clusters.empty() && std::abs(p_sum - 1.0) > 1e-6)
+      throw DataError(fmt::format("{}: cluster probabilities sum to {:.9g}, not 1", sw, p_sum));
+    const auto cdf = json_get<std::vector<int>>(js, "inverse_cdf", sw);
+    for (int v : cdf)
+      if (v < 0 || v >= static_cast<int>(sl.clusters.size()))
+        throw DataError(fmt::format("{}: inverse_cdf entry {} names no cluster", sw, v));
+    for (int v : cdf) sl.inverse_cdf.push_back(static_cast<std::uint8_t>(v));
+    s.pixels += sl.pixels;
+    s.glints += sl.glints;
+    s.slices.push_back(std::move(sl));
+  }
+  for (const Json& ji : j.at("instrument")) {
+    InstrumentSparkle is;
+    is.illumination_deg = json_get<double>(ji, "illumination_deg", where + ": instrument");
+    is.pixels = json_get<std::uint64_t>(ji, "pixels", where + ": instrument");
+    is.glints = json_get<std::uint64_t>(ji, "glints", where + ": instrument");
+    is.area_percent = ji.at("sparkle_area_percent").is_number() ? ji.at("sparkle_area_percent").get<double>() : 0.0;
+    is.intensity = ji.at("sparkle_intensity").is_number() ? ji.at("sparkle_intensity").get<double>() : 0.0;
+    s.instrument.push_back(is);
+  }
+  return s;
+}
+
+std::string describe_flakes(const FlakeStats& s) {
+  std::string out = fmt::format(
+      "{} images, {} pixel samples: {} glints (sparkle area {:.3f} %), {} glint runs, lifetime {:.2f} deg "
+      "(half-vector step {:.2f} deg)\n",
+      s.images, s.pixels, s.glints, 100.0 * s.area(), s.runs, s.lifetime_deg, s.step_deg);
+  if (s.empty()) {
+    out += "no glints: a paint without sparkle (the flake model is empty)\n";
+  }
+  out += "instrument-style sparkle (viewed along the normal):\n";
+  for (const InstrumentSparkle& is : s.instrument) {
+    if (!is.measured())
+      out += fmt::format("  {:>4.0f} deg: not measured (no pixel within {:g} deg of that geometry)\n", is.illumination_deg,
+                         s.options.instrument_tolerance_deg);
+    else
+      out += fmt::format("  {:>4.0f} deg: sparkle area {:.3f} %, intensity {:.2f} ({} of {} pixel samples)\n",
+                         is.illumination_deg, is.area_percent, is.intensity, is.glints, is.pixels);
+  }
+  std::vector<const FlakeSlice*> busiest;
+  for (const FlakeSlice& sl : s.slices)
+    if (sl.glints > 0) busiest.push_back(&sl);
+  std::sort(busiest.begin(), busiest.end(), [](const FlakeSlice* a, const FlakeSlice* b) { return a->glints > b->glints; });
+  if (!busiest.empty()) out += "slices with the most glints (theta_F, theta_I bins of 90/N deg):\n";
+  for (std::size_t k = 0; k < std::min<std::size_t>(5, busiest.size()); ++k) {
+    const FlakeSlice& sl = *busiest[k];
+    out += fmt::format("  ({:2d}, {:2d}): area {:.3f} %, intensity {:.2f} (median {:.2f}), {} colour clusters, "
+                       "lifetime {:.2f} deg\n",
+                       sl.theta_f, sl.theta_i, 100.0 * sl.area(), sl.intensity_mean, sl.intensity_quantiles[2],
+                       sl.clusters.size(), sl.lifetime_deg);
+  }
+  return out;
+}
+
+}  // namespace paintlab::fit

@@ -1,0 +1,232 @@
+// Flake statistics (fitting/flakes.h): the slice geometry, the octree colour clusters, the
+// flakes.json round trip, and extraction on simulated sweeps with and without flakes.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "paintlab/brdf/paint.h"
+#include "paintlab/fitting/flakes.h"
+#include "paintlab/sim/paint.h"
+#include "sim_session.h"
+#include "test_util.h"
+
+namespace paintlab::fit {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(FlakeSlices, RefractedHalfAndDifferenceAnglesPickTheBins) {
+  // Head on: theta_F = theta_I = 0.
+  EXPECT_EQ(flake_slice_of(Vec3::UnitZ(), Vec3::UnitZ(), 1.5, 12, 12), (std::array<int, 2>{0, 0}));
+  // The mirror geometry at 60 deg: hbar along the normal, theta_I the refracted angle,
+  // asin(sin 60 / 1.5) = 35.26 deg: bin floor(12 x 35.26 / 90) = 4 (without +0.5).
+  const double a = deg_to_rad(60.0);
+  const Vec3 wi(std::sin(a), 0, std::cos(a)), wo(-std::sin(a), 0, std::cos(a));
+  EXPECT_EQ(flake_slice_of(wi, wo, 1.5, 12, 12), (std::array<int, 2>{0, 4}));
+  // Without a coat (index 1) the same geometry is 60 deg: bin 8.
+  EXPECT_EQ(flake_slice_of(wi, wo, 1.0, 12, 12), (std::array<int, 2>{0, 8}));
+  // Light and view together at 40 deg off the normal: theta_F = refracted 40 deg = 25.37 deg
+  // (bin 3), theta_I = 0.
+  const double b = deg_to_rad(40.0);
+  const Vec3 w(std::sin(b), 0, std::cos(b));
+  EXPECT_EQ(flake_slice_of(w, w, 1.5, 12, 12), (std::array<int, 2>{3, 0}));
+  // A grazing pair stays inside the grid.
+  const Vec3 g(0.9999, 0, 0.0141);
+  const auto s = flake_slice_of(g, g, 1.0, 12, 12);
+  EXPECT_EQ(s[0], 11);
+}
+
+// Three well separated groups of colours in CIELAB with known shares.
+std::vector<colour::Lab> three_groups(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<colour::Lab> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double r = u(rng);
+    const colour::Lab c = r < 0.5 ? colour::Lab{60, 0, 0} : r < 0.8 ? colour::Lab{80, 30, -20} : colour::Lab{120, -25, 40};
+    out.push_back({c.L + g(rng), c.a + g(rng), c.b + g(rng)});
+  }
+  return out;
+}
+
+TEST(FlakeClusters, OctreeKeepsAtMostNClustersThatCoverEveryColour) {
+  const std::vector<colour::Lab> colours = three_groups(20000, 3);
+  std::vector<FlakeCluster> clusters;
+  std::vector<std::uint8_t> cdf;
+  cluster_flake_colours(colours, 50, 500, &clusters, &cdf);
+  ASSERT_LE(clusters.size(), 50u);
+  ASSERT_GE(clusters.size(), 20u);  // the budget is used, not collapsed to a few
+  double p = 0;
+  std::uint64_t n = 0;
+  for (std::size_t i = 0; i < clusters.size(); ++i) {
+    p += clusters[i].probability;
+    n += clusters[i].count;
+    if (i > 0) {
+      EXPECT_LE(clusters[i].probability, clusters[i - 1].probability);  // most likely first
+    }
+    const FlakeCluster& c = clusters[i];
+    EXPECT_LE(c.lo.L, c.mean.L);
+    EXPECT_GE(c.hi.L, c.mean.L);
+  }
+  EXPECT_NEAR(p, 1.0, 1e-12);
+  EXPECT_EQ(n, colours.size());
+  // Every colour lies in some cluster's box.
+  for (std::size_t k = 0; k < colours.size(); k += 97) {
+    const colour::Lab& c = colours[k];
+    const bool inside = std::any_of(clusters.begin(), clusters.end(), [&](const FlakeCluster& q) {
+      return c.L >= q.lo.L && c.L <= q.hi.L && c.a >= q.lo.a && c.a <= q.hi.a && c.b >= q.lo.b && c.b <= q.hi.b;
+    });
+    EXPECT_TRUE(inside) << k;
+  }
+  // The groups' shares: each cluster lies in one group (they are 30+ dE apart).
+  std::array<double, 3> share{};
+  for (const FlakeCluster& c : clusters) share[c.mean.L < 70 ? 0 : c.mean.L < 100 ? 1 : 2] += c.probability;
+  EXPECT_NEAR(share[0], 0.5, 0.015);
+  EXPECT_NEAR(share[1], 0.3, 0.015);
+  EXPECT_NEAR(share[2], 0.2, 0.015);
+  // The inverse CDF draws each cluster with its probability (to one step).
+  ASSERT_EQ(cdf.size(), 500u);
+  std::vector<int> hits(clusters.size(), 0);
+  for (std::uint8_t c : cdf) {
+    ASSERT_LT(c, clusters.size());
+    ++hits[c];
+  }
+  for (std::size_t i = 0; i < clusters.size(); ++i)
+    EXPECT_NEAR(hits[i] / 500.0, clusters[i].probability, 1.0 / 500 + 1e-12) << i;
+}
+
+TEST(FlakeClusters, FewColoursAreTheirOwnClustersAndNoneGiveNone) {
+  std::vector<FlakeCluster> clusters;
+  std::vector<std::uint8_t> cdf;
+  cluster_flake_colours({{50, 1, 2}, {50, 1, 2}, {70, -3, 4}}, 50, 10, &clusters, &cdf);
+  ASSERT_EQ(clusters.size(), 2u);
+  EXPECT_NEAR(clusters[0].probability, 2.0 / 3.0, 1e-12);
+  EXPECT_EQ(clusters[0].mean, (colour::Lab{50, 1, 2}));
+  // Entry k holds the cluster where (k + 0.5) / 10 falls: 0.05 .. 0.65 below 2/3.
+  EXPECT_EQ(cdf, (std::vector<std::uint8_t>{0, 0, 0, 0, 0, 0, 0, 1, 1, 1}));
+  cluster_flake_colours({}, 50, 10, &clusters, &cdf);
+  EXPECT_TRUE(clusters.empty());
+  EXPECT_TRUE(cdf.empty());
+}
+
+FlakeStats small_stats() {
+  FlakeStats s;
+  s.colour_space = colour::kLinearSrgb;
+  s.images = 3;
+  s.runs = 4;
+  s.lifetime_deg = 6.1;
+  s.step_deg = 1.0;
+  FlakeSlice sl;
+  sl.theta_f = 1;
+  sl.theta_i = 2;
+  sl.pixels = 1000;
+  sl.glints = 30;
+  sl.intensity_mean = 4.5;
+  sl.intensity_quantiles = {1, 2, 3, 4, 5};
+  std::vector<std::uint8_t> cdf;
+  cluster_flake_colours(three_groups(30, 1), 50, 20, &sl.clusters, &sl.inverse_cdf);
+  sl.runs = 4;
+  sl.lifetime_deg = 6.1;
+  s.slices.push_back(sl);
+  s.pixels = 1000;
+  s.glints = 30;
+  s.instrument = {{15, 100, 5, 5.0, 3.0}, {45, 0, 0, 0, 0}, {75, 10, 0, 0, 0}};
+  return s;
+}
+
+TEST(FlakesJson, RoundTripsAndRefusesDamage) {
+  const FlakeStats s = small_stats();
+  const Json j = flakes_to_json(s);
+  EXPECT_EQ(j["format"], "paintlab-flakes");
+  EXPECT_EQ(j["instrument"][1]["sparkle_area_percent"], nullptr);  // not measured: null, never 0
+  const FlakeStats back = flakes_from_json(j, "f.json");
+  EXPECT_EQ(flakes_to_json(back), j);
+  EXPECT_EQ(back.slices[0].clusters.size(), s.slices[0].clusters.size());
+  EXPECT_DOUBLE_EQ(back.area(), 0.03);
+
+  auto refused = [&](Json bad) {
+    try {
+      flakes_from_json(bad, "f.json");
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  Json bad = j;
+  bad["format_version"] = 2;
+  EXPECT_THAT(refused(bad), HasSubstr("f.json: format_version 2 is newer than this software reads (1)"));
+  bad = j;
+  bad["slices"][0]["theta_i"] = 12;
+  EXPECT_THAT(refused(bad), HasSubstr("f.json: slices[0]: bin (1, 12) outside the 12 x 12 slices"));
+  bad = j;
+  bad["slices"][0]["clusters"][0]["p"] = 0.9;
+  EXPECT_THAT(refused(bad), HasSubstr("f.json: slices[0]: cluster probabilities sum to"));
+  bad = j;
+  bad["slices"][0]["inverse_cdf"][0] = 60;
+  EXPECT_THAT(refused(bad), HasSubstr("f.json: slices[0]: inverse_cdf entry 60 names no cluster"));
+  bad = j;
+  bad["slices"][0]["glints"] = 5000;
+  EXPECT_THAT(refused(bad), HasSubstr("f.json: slices[0]: more glints than pixels"));
+  EXPECT_THAT(refused(Json{{"format", "other"}}), HasSubstr("f.json: not a flakes file"));
+}
+
+// A 320 x 240 sweep every 3 deg of the silver metallic paint (its flakes coloured), and
+// its statistics against the true smooth BRDF.
+struct SilverSweep {
+  std::unique_ptr<test_support::SimSession> session;
+  FlakeStats stats;
+};
+
+SilverSweep silver_sweep(bool sparkle, double noise_rel) {
+  const brdf::PaintSpec spec = brdf::load_paint_file(test::source_dir() / "paints" / "silver-metallic.toml");
+  test_support::SimSessionOptions o;
+  o.width_px = 320;
+  o.height_px = 240;
+  o.focal_length_mm = 25.0;
+  o.step_deg = 1.0;
+  o.start_deg = 20.0;
+  o.stop_deg = 160.0;
+  o.noise_rel = noise_rel;
+  o.sparkle = sparkle;
+  SilverSweep w;
+  w.session = test_support::make_sim_session(sim::sim_paint(spec), o);
+  const calib::RigCalibration cal = calib::RigCalibration::load(w.session->calibration_dir());
+  const auto model = brdf::make_brdf(spec);
+  w.stats = extract_flakes(w.session->frames, cal, *model);
+  std::printf("%s", describe_flakes(w.stats).c_str());
+  return w;
+}
+
+TEST(FlakeExtraction, APaintWithoutFlakesHasAnEmptyFlakeModel) {
+  const SilverSweep w = silver_sweep(false, 0.02);
+  EXPECT_GT(w.stats.pixels, 100000u);
+  EXPECT_EQ(w.stats.glints, 0u);
+  EXPECT_TRUE(w.stats.empty());
+  for (const FlakeSlice& s : w.stats.slices) EXPECT_TRUE(s.clusters.empty());
+}
+
+TEST(FlakeExtraction, FindsTheSimulatorsGlintsTheirLifetimeAndColours) {
+  const SilverSweep w = silver_sweep(true, 0.02);
+  const SilverSweep clean = silver_sweep(true, 1e-4);
+  ASSERT_FALSE(w.stats.empty());
+  EXPECT_GT(w.stats.glints, 2000u);
+  // The pixel noise does not make or hide glints: the area of the busy slices as without noise.
+  for (const FlakeSlice& s : clean.stats.slices) {
+    if (s.glints < 300) continue;
+    const FlakeSlice* n = w.stats.slice(s.theta_f, s.theta_i);
+    ASSERT_NE(n, nullptr);
+    EXPECT_NEAR(n->area(), s.area(), 0.1 * s.area()) << s.theta_f << ", " << s.theta_i;
+  }
+  // The lifetime of the paint's flakes (6.5 deg, paints/silver-metallic.toml).
+  std::printf("lifetime %.2f deg (noise-free %.2f), %llu runs\n", w.stats.lifetime_deg, clean.stats.lifetime_deg,
+              static_cast<unsigned long long>(w.stats.runs));
+  EXPECT_GT(w.stats.runs, 200u);
+  EXPECT_NEAR(w.stats.lifetime_deg, 6.5, 1.0);
+}
+
+}  // namespace
+}  // namespace paintlab::fit
