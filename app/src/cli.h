@@ -79,6 +79,7 @@ void register_library_commands(CLI::App& app);    // paintlab library add|list|s
 void register_render_commands(CLI::App& app);     // paintlab render (cmd_render.cpp)
 void register_colour_commands(CLI::App& app);     // paintlab colour, paintlab qc (cmd_colour.cpp)
 void register_report_commands(CLI::App& app);     // paintlab report (cmd_report.cpp)
+void register_flakes_commands(CLI::App& app);     // paintlab flakes (cmd_flakes.cpp)
 void register_demo_commands(CLI::App& app);       // paintlab demo (cmd_demo.cpp)
 
 }  // namespace paintlab::app

@@ -436,7 +436,10 @@ FlakeStats session_flakes(const std::filesystem::path& session_dir, const Sessio
     model = brdf::make_brdf(axf_from_fit_json(fit.fit, session_dir.string()).paint_spec());
   }
   spdlog::info("comparing {} HDR images of {} with the smooth model", frames.size(), session_dir.string());
-  return extract_flakes(frames, cal, *model, options.flakes, options.extraction);
+  FlakeStats stats = extract_flakes(frames, cal, *model, options.flakes, options.extraction);
+  // The session states its values' colour space (its images may not).
+  if (const std::string& cs = session.manifest().options.colour_space; !cs.empty()) stats.colour_space = cs;
+  return stats;
 }
 
 namespace {
