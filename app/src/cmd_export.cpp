@@ -39,6 +39,8 @@ struct ExportArgs {
   std::string name;
   std::string fit_out;
   std::uint64_t seed = 1;
+  std::string flakes;   // a flakes.json, or "auto" (a session's, measured here)
+  int flake_texture = 32;
   ExtractArgs extract;  // --calib, --margin-px, --variance, --estimator; --threads for all
   CLI::Option* model_option = nullptr;
   CLI::Option* lobes_option = nullptr;
@@ -48,6 +50,7 @@ int run_export(const ExportArgs& a) {
   fit::OutputGuard guard;
   for (const auto& in : a.inputs) guard.input("INPUT", in).input("what " + in + " was fitted to", fit::fitted_input_of(in));
   guard.input("--calib", a.extract.calib);
+  if (a.flakes != "auto") guard.input("--flakes", a.flakes);
   guard.output({"--axf", a.axf}).output({"--merl", a.merl}).output({"--fit-out", a.fit_out}).check();
   fit::ExportRequest r;
   for (const auto& in : a.inputs) r.inputs.emplace_back(in);
@@ -60,6 +63,9 @@ int run_export(const ExportArgs& a) {
   r.name = a.name;
   r.seed = a.seed;
   r.threads = a.extract.threads;
+  if (a.flakes == "auto") r.session_flakes = true;
+  else if (!a.flakes.empty()) r.flakes = a.flakes;
+  r.flake_texture = a.flake_texture;
   const fit::ExportResult result = fit::export_paint(r);
   for (const auto& line : result.lines) say(line);
   if (!result.converged) {
@@ -105,6 +111,12 @@ void register_export_commands(CLI::App& app) {
   exp->add_option("--name", args->name, "Paint name (default: the sample name or the fit's name)")->check(utf8_text());
   exp->add_option("--fit-out", args->fit_out, "Session only, with --axf: also write the fit as fit.json");
   exp->add_option("--seed", args->seed, "Seed of the fit's random starts")->capture_default_str();
+  exp->add_option("--flakes", args->flakes,
+                  "With --axf: the measured flakes (statistics and CPA2-style flake BTF, docs/sparkle.md): a "
+                  "flakes.json from `paintlab flakes`, or auto (a session: measured here against the fit)");
+  exp->add_option("--flake-texture", args->flake_texture, "Texels a side of each flake BTF slice, 1..1024")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
   add_extract_options(exp, args->extract, true);
   add_cfa_sites_option(exp, args->extract);
 

@@ -187,6 +187,28 @@ void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const
     }
   }
 
+  if (paint.flake_stats) {  // format version 4: the measured flakes (flakes.json, docs/sparkle.md)
+    const std::string gp = h5::join(rp, "flake_stats");
+    Handle g = w.create_group(root, "flake_stats", gp);
+    w.strings(g.get(), "json", {flakes_to_json(*paint.flake_stats).dump()}, h5::join(gp, "json"));
+  }
+  if (paint.flake_btf) {  // format version 4: the CPA2-style flake BTF
+    const FlakeBtf& b = *paint.flake_btf;
+    const std::string gp = h5::join(rp, "flake_btf");
+    Handle g = w.create_group(root, "flake_btf", gp);
+    w.attr_string(g.get(), "bin_convention", kFlakeBinConvention, gp);
+    w.scalar_int(g.get(), "num_thetaF", b.num_theta_f, h5::join(gp, "num_thetaF"));
+    w.scalar_int(g.get(), "num_thetaI", b.num_theta_i, h5::join(gp, "num_thetaI"));
+    w.scalar_int(g.get(), "max_thetaI", b.max_theta_i, h5::join(gp, "max_thetaI"));
+    w.scalar_int(g.get(), "texture_size", b.texture_size, h5::join(gp, "texture_size"));
+    w.scalar(g.get(), "ior", b.ior, h5::join(gp, "ior"));
+    const std::vector<std::int64_t> lut(b.slice_lut.begin(), b.slice_lut.end());
+    w.ints(g.get(), "thetaFI_sliceLUT", lut, {static_cast<hsize_t>(lut.size())}, h5::join(gp, "thetaFI_sliceLUT"));
+    const auto n = static_cast<hsize_t>(b.slices()), t = static_cast<hsize_t>(b.texture_size);
+    w.doubles(g.get(), "BTFflakes", b.texels, {n, t, t, 3}, h5::join(gp, "BTFflakes"));
+    w.doubles(g.get(), "slice_mean", b.slice_mean, {n, 3}, h5::join(gp, "slice_mean"));
+  }
+
   if (paint.fit_quality) {
     const auto& q = *paint.fit_quality;
     const std::string gp = h5::join(rp, "fit_quality");
@@ -548,6 +570,76 @@ std::optional<brdf::FlakeSpec> read_flakes(hid_t root, const std::string& rp, st
   return f;
 }
 
+std::optional<FlakeStats> read_flake_stats(hid_t root, const std::string& rp, const Problems& p) {
+  const SectionRead g = open_section(root, rp, "flake_stats", p);
+  if (!g) return std::nullopt;
+  const std::string jp = h5::join(g.path, "json");
+  std::optional<FlakeStats> out;
+  if (auto text = h5::read_strings(g.id(), "json", jp, p)) {
+    if (text->size() != 1) {
+      p.add(jp, fmt::format("{} strings, expected 1 (the flakes.json text)", text->size()));
+    } else {
+      try {
+        out = flakes_from_json(Json::parse(text->front()), jp);
+      } catch (const Json::exception& e) {
+        p.add(jp, std::string("not JSON: ") + e.what());
+      } catch (const Error& e) {
+        p.list->push_back(e.what());
+      }
+    }
+  }
+  if (!g.clean(p)) return std::nullopt;
+  return out;
+}
+
+std::optional<FlakeBtf> read_flake_btf(hid_t root, const std::string& rp, const Problems& p) {
+  const SectionRead g = open_section(root, rp, "flake_btf", p);
+  if (!g) return std::nullopt;
+  const std::string& gp = g.path;
+  if (auto c = h5::read_attr_string(g.id(), "bin_convention", gp, p); c && *c != kFlakeBinConvention)
+    p.add(h5::attr_path(gp, "bin_convention"),
+          "states a different bin convention than the format defines (\"" + *c + "\"); expected \"" +
+              kFlakeBinConvention + "\"");
+  FlakeBtf b;
+  auto scalar_int = [&](const char* name, int* v) {
+    const std::string path = h5::join(gp, name);
+    if (auto a = h5::read_ints(g.id(), name, path, p)) {
+      if (!a->dims.empty()) p.add(path, "wrong shape " + shape_text(a->dims) + ", expected a scalar");
+      else if (a->values[0] < 0 || a->values[0] > 1024) p.add(path, fmt::format("value {} outside [0, 1024]", a->values[0]));
+      else *v = static_cast<int>(a->values[0]);
+    }
+  };
+  scalar_int("num_thetaF", &b.num_theta_f);
+  scalar_int("num_thetaI", &b.num_theta_i);
+  scalar_int("max_thetaI", &b.max_theta_i);
+  scalar_int("texture_size", &b.texture_size);
+  if (auto v = read_checked(g.id(), "ior", gp, {}, Range::closed(1, 3), p)) b.ior = v->values[0];
+  const std::string lp = h5::join(gp, "thetaFI_sliceLUT");
+  if (auto l = h5::read_ints(g.id(), "thetaFI_sliceLUT", lp, p)) {
+    if (l->dims.size() != 1) p.add(lp, "wrong shape " + shape_text(l->dims) + ", expected [max_thetaI + 1]");
+    else
+      for (std::int64_t v : l->values) b.slice_lut.push_back(v < 0 || v > 255 ? -1 : static_cast<int>(v));
+  }
+  if (auto t = h5::read_doubles(g.id(), "BTFflakes", h5::join(gp, "BTFflakes"), p)) {
+    const auto want = static_cast<hsize_t>(b.texture_size);
+    if (t->dims.size() != 4 || t->dims[1] != want || t->dims[2] != want || t->dims[3] != 3)
+      p.add(h5::join(gp, "BTFflakes"), "wrong shape " + shape_text(t->dims) + ", expected [slices, texture_size, texture_size, 3]");
+    b.texels = std::move(t->values);
+  }
+  if (auto m = h5::read_doubles(g.id(), "slice_mean", h5::join(gp, "slice_mean"), p)) b.slice_mean = std::move(m->values);
+  if (g.clean(p) && !b.slice_lut.empty()) {
+    try {
+      b.check(gp);
+    } catch (const DataError& e) {
+      p.list->push_back(e.what());
+    }
+  } else if (g.clean(p)) {
+    p.add(lp, "empty (expected max_thetaI + 1 entries)");
+  }
+  if (!g.clean(p)) return std::nullopt;
+  return b;
+}
+
 std::optional<AxfFitQuality> read_fit_quality(hid_t root, const std::string& rp, const Problems& p) {
   const SectionRead g = open_section(root, rp, "fit_quality", p);
   if (!g) return std::nullopt;
@@ -689,6 +781,15 @@ AxfPaint read_paint(hid_t root, const std::string& rp, const Problems& problems,
     if (paint.model == "cook-torrance" && paint.cook_torrance) lobes = paint.cook_torrance->params.lobes.size();
     paint.flakes = read_flakes(root, rp, lobes, p);
   }
+  if (present("flake_stats")) paint.flake_stats = read_flake_stats(root, rp, p);
+  if (present("flake_btf")) paint.flake_btf = read_flake_btf(root, rp, p);
+  if (paint.flake_stats && paint.flake_btf &&
+      (paint.flake_btf->num_theta_f != paint.flake_stats->options.num_theta_f ||
+       paint.flake_btf->num_theta_i != paint.flake_stats->options.num_theta_i))
+    p.add(h5::join(rp, "flake_btf"), fmt::format("{} x {} slice bins, but /flake_stats has {} x {}",
+                                                 paint.flake_btf->num_theta_f, paint.flake_btf->num_theta_i,
+                                                 paint.flake_stats->options.num_theta_f,
+                                                 paint.flake_stats->options.num_theta_i));
   if (present("fit_quality")) paint.fit_quality = read_fit_quality(root, rp, p);
   paint.provenance = read_provenance(root, rp, p);
   check_content(root, rp, version, digest, first, problems);
@@ -884,6 +985,10 @@ AxfPaint merge_axf(AxfPaint base, const AxfPaint& other) {
     base.cook_torrance = other.cook_torrance;
   }
   if (!base.flakes) base.flakes = other.flakes;
+  if (!base.flake_stats) {
+    base.flake_stats = other.flake_stats;
+    base.flake_btf = other.flake_btf;
+  }
   if (!base.fit_quality) base.fit_quality = other.fit_quality;
   return base;
 }
@@ -1075,6 +1180,21 @@ std::string describe_axf(const AxfPaint& a) {
   if (a.flakes)
     s += fmt::format("  flakes: density {:.4g}, roughness {:.4g}, lifetime {:.3g} deg, {} lobe(s)\n", a.flakes->density,
                      a.flakes->roughness, a.flakes->lifetime_deg, a.flakes->lobes.size());
+  if (a.flake_stats) {
+    const FlakeStats& f = *a.flake_stats;
+    s += fmt::format("  measured flakes: sparkle area {:.3f} % of {} pixel observations, lifetime {:.2f} deg, {} slices "
+                     "with glints\n",
+                     100.0 * f.area(), f.pixels, f.lifetime_deg,
+                     std::count_if(f.slices.begin(), f.slices.end(), [](const FlakeSlice& x) { return x.glints > 0; }));
+    for (const InstrumentSparkle& is : f.instrument)
+      if (is.measured())
+        s += fmt::format("    {:.0f} deg: sparkle area {:.3f} %, intensity {:.2f}\n", is.illumination_deg,
+                         is.area_percent, is.intensity);
+  }
+  if (a.flake_btf)
+    s += fmt::format("  flake BTF: {} slices of {} x {} texels, {} x {} bins, max_thetaI {}\n", a.flake_btf->slices(),
+                     a.flake_btf->texture_size, a.flake_btf->texture_size, a.flake_btf->num_theta_f,
+                     a.flake_btf->num_theta_i, a.flake_btf->max_theta_i);
   if (a.fit_quality)
     s += fmt::format("  fit quality: log RMS {:.4f} over {} bins{}\n", a.fit_quality->log_rms,
                      a.fit_quality->bins_used, a.fit_quality->converged ? "" : " (did NOT converge)");

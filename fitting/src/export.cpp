@@ -51,6 +51,21 @@ std::string axf_line(const fs::path& file, const AxfPaint& p) {
                      p.carpaint && p.cook_torrance ? " + cook-torrance" : "", quality);
 }
 
+// Adds measured flakes to a paint: their statistics and BTF, or nothing for a paint without
+// glints (no invented sparkle); the line that says which.
+std::string attach_flakes(AxfPaint& paint, const FlakeStats& stats, int texture) {
+  if (stats.empty()) {
+    paint.flake_stats.reset();
+    paint.flake_btf.reset();
+    return fmt::format("flakes: no glint in {} pixel observations: no flake model (a paint without sparkle)",
+                       stats.pixels);
+  }
+  paint.flake_stats = stats;
+  paint.flake_btf = make_flake_btf(stats, texture);
+  return fmt::format("flakes: sparkle area {:.3f} %, lifetime {:.2f} deg; flake BTF of {} slices of {} x {} texels",
+                     100.0 * stats.area(), stats.lifetime_deg, paint.flake_btf->slices(), texture, texture);
+}
+
 AxfPaint paint_of_fits(const std::vector<Json>& fits) {
   if (fits.empty()) throw UsageError("export_axf: no fit given");
   std::optional<AxfPaint> paint;
@@ -132,6 +147,19 @@ void export_session(const ExportRequest& r, ExportResult& result) {
     AxfPaint paint = paint_of_fits(result.fits);
     paint.provenance = session_provenance(session);
     if (!r.name.empty()) paint.name = r.name;
+    if (r.session_flakes) {
+      // Against the first fit: the smooth model is the flakes' average.
+      const auto t_flakes = std::chrono::steady_clock::now();
+      const auto model = brdf::make_brdf(axf_from_fit_json(result.fits.front(), "the fit").paint_spec());
+      FlakeOptions fo = r.flake_options;
+      fo.threads = r.threads;
+      const FlakeStats stats = session_flakes(session, *model, fo, r.bin.extraction, r.bin.calib_dir);
+      result.lines.push_back(attach_flakes(paint, stats, r.flake_texture));
+      result.flakes_s = seconds_since(t_flakes);
+    } else if (r.flakes) {
+      result.lines.push_back(attach_flakes(paint, flakes_from_json(read_json_file(*r.flakes), r.flakes->string()),
+                                           r.flake_texture));
+    }
     write_axf_file(*r.axf, paint);  // checks the paint first: nothing written when it is wrong
     result.paint = read_axf_file(*r.axf);  // as written (export date, software version)
     result.lines.push_back(axf_line(*r.axf, *result.paint));
@@ -193,6 +221,11 @@ void export_paint_files(const ExportRequest& r, ExportResult& result) {
           "or a MERL table) still exists");
     }
   }
+  if (r.session_flakes)
+    throw UsageError("--flakes auto measures the flakes of a session; for paint files give a flakes.json");
+  if (r.flakes)
+    result.lines.push_back(attach_flakes(*paint, flakes_from_json(read_json_file(*r.flakes), r.flakes->string()),
+                                         r.flake_texture));
   const auto t0 = std::chrono::steady_clock::now();
   if (r.axf) {
     if (!r.name.empty()) paint->name = r.name;
@@ -210,6 +243,9 @@ ExportResult export_paint(const ExportRequest& r) {
   if (!r.axf && !r.merl) throw UsageError("nothing to write: give --axf FILE and/or --merl FILE");
   if (r.inputs.empty() || r.inputs.size() > 2) throw UsageError("give one session folder, or one or two paint files");
   if (r.lobes && (*r.lobes < 1 || *r.lobes > 3)) throw UsageError(fmt::format("--lobes {}: must be 1..3", *r.lobes));
+  if ((r.flakes || r.session_flakes) && !r.axf)
+    throw UsageError("--flakes goes into the AxF-like file: give --axf FILE");
+  if (r.flakes && r.session_flakes) throw UsageError("--flakes: a flakes.json or auto, not both");
   ExportResult result;
   if (acq::is_session_dir(r.inputs[0]))
     export_session(r, result);

@@ -1,6 +1,6 @@
 #include "paintlab/fitting/flakes.h"
 
-#include <tbb/combinable.h>
+#include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <map>
 #include <numeric>
+#include <random>
 
 #include "paintlab/core/error.h"
 #include "paintlab/core/geometry.h"
@@ -64,12 +65,13 @@ struct InstrumentAcc {
   double contrast_sum = 0.0;
 };
 
-struct ThreadAcc {
+// Everything summed over the sweep.
+struct SweepAcc {
   std::vector<SliceAcc> slices;
   std::array<InstrumentAcc, 3> instrument{};
   double step_sum = 0.0;
   std::uint64_t steps = 0;
-  explicit ThreadAcc(std::size_t n) : slices(n) {}
+  explicit SweepAcc(std::size_t n) : slices(n) {}
 };
 
 // A pixel across the sweep: its run of glinting positions so far.
@@ -245,116 +247,150 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
 
   FlakeStats out;
   out.options = options;
-  std::vector<PixelTrack> track(sampler.pixel_count());
-  tbb::combinable<ThreadAcc> acc([&] { return ThreadAcc(n_slices); });
   const double tol = deg_to_rad(options.instrument_tolerance_deg);
-  const Eigen::Vector3d lum_srgb(0.2126, 0.7152, 0.0722);
-  Eigen::Vector3d lum = lum_srgb;
-  // A run of glints ends: one chord of run_len steps, in the slice where it lit up.
-  auto close_run = [&](ThreadAcc& a, const PixelTrack& t) {
+  // One image's observations, in pixel order (stage 1 of the pipeline below).
+  struct Obs {
+    std::uint32_t pixel;
+    std::uint16_t slice;
+    std::uint8_t glint;       // 0 or 1
+    std::uint8_t instrument;  // bit g: within the tolerance of instrument geometry g
+    float contrast;
+    Eigen::Vector3f h;
+    float lab[3];             // glints only
+  };
+  struct Item {
+    std::size_t index = 0;
+    bool mono = false;
+    std::string colour_space;
+    std::vector<Obs> obs;
+  };
+  auto observe = [&](std::size_t k) {
+    auto item = std::make_shared<Item>();
+    item->index = k;
+    const HdrFrame& frame = frames[k];
+    const ExrImage hdr = read_exr(frame.path);
+    item->mono = hdr.find("Y") != nullptr;
+    const auto it = hdr.attributes.find("paintlab.colour_space");
+    item->colour_space = it == hdr.attributes.end() || it->second.empty() ? colour::kCameraRgb : it->second;
+    // Luminance: Y of linear sRGB; a monochrome image's one channel.
+    const Eigen::Vector3d lum = item->mono ? Eigen::Vector3d(1.0, 0.0, 0.0) : Eigen::Vector3d(0.2126, 0.7152, 0.0722);
+    std::vector<Obs> all(sampler.pixel_count());
+    std::vector<std::uint8_t> present(sampler.pixel_count(), 0);
+    sampler.for_each_value(hdr, frame.angle_deg, [&](const SphereSampler::PixelValue& v) {
+      const brdf::Rgb m = model.eval(v.wi, v.wo);
+      const Eigen::Vector3d meas(v.rgb[0], v.rgb[1], v.rgb[2]);
+      const Eigen::Vector3d var(v.var[0], v.var[1], v.var[2]);
+      const Eigen::Vector3d mod(m[0], m[1], m[2]);
+      const double l_model = lum.dot(mod), l_excess = lum.dot(meas - mod);
+      const double sigma = std::sqrt(lum.cwiseProduct(lum).dot(var) + std::pow(options.model_error * l_model, 2));
+      Obs o{};
+      o.pixel = v.pixel;
+      o.slice = static_cast<std::uint16_t>(slice_index(flake_slice_of(v.wi, v.wo, options.ior, nf, ni)));
+      o.glint = l_model > 0.0 && l_excess > options.threshold_sigma * sigma &&
+                l_excess > options.threshold_ratio * l_model;
+      o.contrast = l_model > 0.0 ? static_cast<float>(l_excess / l_model) : 0.0f;
+      o.h = v.h_cam.cast<float>();
+      if (o.glint) {
+        const Eigen::Vector3d excess = (meas - mod).cwiseMax(0.0) * kPi;
+        const colour::Lab lab = colour::srgb_to_lab(item->mono ? colour::Rgb::Constant(excess[0]) : colour::Rgb(excess));
+        o.lab[0] = static_cast<float>(lab.L);
+        o.lab[1] = static_cast<float>(lab.a);
+        o.lab[2] = static_cast<float>(lab.b);
+      }
+      // The instrument geometries: viewed along the normal, lit at 15, 45, 75 deg.
+      if (std::acos(std::clamp(v.wo.z(), -1.0, 1.0)) <= tol) {
+        const double theta_i = std::acos(std::clamp(v.wi.z(), -1.0, 1.0));
+        for (std::size_t g = 0; g < kInstrumentAngles.size(); ++g)
+          if (std::abs(theta_i - deg_to_rad(kInstrumentAngles[g])) <= tol) o.instrument |= static_cast<std::uint8_t>(1u << g);
+      }
+      all[v.pixel] = o;
+      present[v.pixel] = 1;
+    }, frame.path.string());
+    item->obs.reserve(all.size());
+    for (std::size_t i = 0; i < all.size(); ++i)
+      if (present[i]) item->obs.push_back(all[i]);
+    return item;
+  };
+
+  // Stage 2, in sweep order: each pixel's runs of glints across the positions, and the sums.
+  std::vector<PixelTrack> track(sampler.pixel_count());
+  SweepAcc a(n_slices);
+  auto close_run = [&](const PixelTrack& t) {  // one chord of run_len steps, in the slice where it lit up
     if (t.run_len <= 0 || t.run_slice < 0) return;
     SliceAcc& s = a.slices[static_cast<std::size_t>(t.run_slice)];
     s.runs += 1;
     s.chord_sum_rad += t.run_len * static_cast<double>(t.last_step);
   };
-
-  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
   Progress progress("flakes", static_cast<long>(frames.size()), "img");
-  for (std::size_t fi = 0; fi < frames.size(); ++fi) {
-    const HdrFrame& frame = frames[fi];
-    const ExrImage hdr = read_exr(frame.path);
-    if (fi == 0) {
-      out.mono = hdr.find("Y") != nullptr;
-      const auto it = hdr.attributes.find("paintlab.colour_space");
-      out.colour_space = it == hdr.attributes.end() || it->second.empty() ? colour::kCameraRgb : it->second;
-      if (out.mono) lum = Eigen::Vector3d(1.0, 0.0, 0.0);
+  auto accumulate = [&](const Item& item) {
+    const auto t = static_cast<std::int32_t>(item.index);
+    if (item.index == 0) {
+      out.mono = item.mono;
+      out.colour_space = item.colour_space;
     }
-    const auto t = static_cast<std::int32_t>(fi);
-    ExtractionStats st;
-    arena.execute([&] {
-      st = sampler.for_each_value(hdr, frame.angle_deg, [&](const SphereSampler::PixelValue& v) {
-        ThreadAcc& a = acc.local();
-        PixelTrack& tr = track[v.pixel];
-        const Eigen::Vector3f h = v.h_cam.cast<float>();
-        if (tr.last_seen == t - 1) {
-          tr.last_step = static_cast<float>(angle_between_units(tr.h.cast<double>(), v.h_cam));
-          a.step_sum += tr.last_step;
-          a.steps += 1;
-        } else if (tr.run_len > 0) {  // a gap (an invalid position) ends a run unseen: drop it
-          tr.run_len = 0;
+    for (const Obs& o : item.obs) {
+      PixelTrack& tr = track[o.pixel];
+      if (tr.last_seen == t - 1) {
+        tr.last_step = static_cast<float>(angle_between_units(tr.h.cast<double>(), o.h.cast<double>()));
+        a.step_sum += tr.last_step;
+        a.steps += 1;
+      } else if (tr.run_len > 0) {  // a gap (an invalid position) ends a run unseen: left out
+        tr.run_len = 0;
+      }
+      tr.last_seen = t;
+      tr.h = o.h;
+      SliceAcc& s = a.slices[o.slice];
+      s.pixels += 1;
+      if (o.glint) {
+        s.glints.push_back({o.contrast, colour::Lab{o.lab[0], o.lab[1], o.lab[2]}});
+        if (tr.last_glint == t - 1 && tr.run_len > 0) {
+          tr.run_len += 1;
+        } else {
+          tr.run_len = 1;
+          // A run lit at the first position began before the sweep: cut short, left out.
+          tr.run_slice = t == 0 ? std::int16_t{-1} : static_cast<std::int16_t>(o.slice);
         }
-        tr.last_seen = t;
-        tr.h = h;
-        const brdf::Rgb m = model.eval(v.wi, v.wo);
-        const Eigen::Vector3d meas(v.rgb[0], v.rgb[1], v.rgb[2]);
-        const Eigen::Vector3d var(v.var[0], v.var[1], v.var[2]);
-        const Eigen::Vector3d mod(m[0], m[1], m[2]);
-        const double l_model = lum.dot(mod), l_excess = lum.dot(meas - mod);
-        const double sigma = std::sqrt(lum.cwiseProduct(lum).dot(var) +
-                                       std::pow(options.model_error * l_model, 2));
-        const bool glint = l_model > 0.0 && l_excess > options.threshold_sigma * sigma &&
-                           l_excess > options.threshold_ratio * l_model;
-        const std::size_t si = slice_index(flake_slice_of(v.wi, v.wo, options.ior, nf, ni));
-        SliceAcc& s = a.slices[si];
-        s.pixels += 1;
-        const double contrast = l_model > 0.0 ? l_excess / l_model : 0.0;
-        if (glint) {
-          const Eigen::Vector3d excess = (meas - mod).cwiseMax(0.0) * kPi;
-          const colour::Rgb rf = out.mono ? colour::Rgb::Constant(excess[0]) : colour::Rgb(excess);
-          s.glints.push_back({static_cast<float>(contrast), colour::srgb_to_lab(rf)});
-          if (tr.last_glint == t - 1 && tr.run_len > 0) {
-            tr.run_len += 1;
-          } else {
-            tr.run_len = 1;
-            // A run lit at the first position began before the sweep: cut short, left out.
-            tr.run_slice = t == 0 ? std::int16_t{-1} : static_cast<std::int16_t>(si);
-          }
-          tr.last_glint = t;
-        } else if (tr.run_len > 0) {
-          close_run(a, tr);
-          tr.run_len = 0;
+        tr.last_glint = t;
+      } else if (tr.run_len > 0) {
+        close_run(tr);
+        tr.run_len = 0;
+      }
+      for (std::size_t g = 0; g < kInstrumentAngles.size(); ++g) {
+        if (!(o.instrument & (1u << g))) continue;
+        InstrumentAcc& ia = a.instrument[g];
+        ia.pixels += 1;
+        if (o.glint) {
+          ia.glints += 1;
+          ia.contrast_sum += o.contrast;
         }
-        // The instrument geometries: viewed along the normal, lit at 15, 45, 75 deg.
-        const double theta_o = std::acos(std::clamp(v.wo.z(), -1.0, 1.0));
-        if (theta_o <= tol) {
-          const double theta_i = std::acos(std::clamp(v.wi.z(), -1.0, 1.0));
-          for (std::size_t g = 0; g < kInstrumentAngles.size(); ++g) {
-            if (std::abs(theta_i - deg_to_rad(kInstrumentAngles[g])) > tol) continue;
-            InstrumentAcc& ia = a.instrument[g];
-            ia.pixels += 1;
-            if (glint) {
-              ia.glints += 1;
-              ia.contrast_sum += contrast;
-            }
-          }
-        }
-      }, frame.path.string());
-    });
+      }
+    }
     out.images += 1;
-    progress.step(fmt::format("{:.1f} deg", frame.angle_deg));
-  }
-  // Runs still lit at the end of the sweep are cut short: left out like those cut by a gap.
-  // Gather.
-  std::vector<SliceAcc> slices(n_slices);
-  std::array<InstrumentAcc, 3> instrument{};
-  double step_sum = 0.0;
-  std::uint64_t steps = 0;
-  acc.combine_each([&](ThreadAcc& a) {
-    for (std::size_t i = 0; i < n_slices; ++i) {
-      SliceAcc& s = slices[i];
-      s.pixels += a.slices[i].pixels;
-      s.runs += a.slices[i].runs;
-      s.chord_sum_rad += a.slices[i].chord_sum_rad;
-      s.glints.insert(s.glints.end(), a.slices[i].glints.begin(), a.slices[i].glints.end());
-    }
-    for (std::size_t g = 0; g < 3; ++g) {
-      instrument[g].pixels += a.instrument[g].pixels;
-      instrument[g].glints += a.instrument[g].glints;
-      instrument[g].contrast_sum += a.instrument[g].contrast_sum;
-    }
-    step_sum += a.step_sum;
-    steps += a.steps;
+    progress.step(fmt::format("{:.1f} deg", frames[item.index].angle_deg));
+  };
+  // Images are read and compared in parallel (a few in flight), and tracked in order.
+  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    std::size_t next = 0;
+    tbb::parallel_pipeline(
+        static_cast<std::size_t>(2 * arena.max_concurrency()),
+        tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                            [&](tbb::flow_control& fc) -> std::size_t {
+                                              if (next >= frames.size()) {
+                                                fc.stop();
+                                                return 0;
+                                              }
+                                              return next++;
+                                            }) &
+            tbb::make_filter<std::size_t, std::shared_ptr<Item>>(tbb::filter_mode::parallel, observe) &
+            tbb::make_filter<std::shared_ptr<Item>, void>(tbb::filter_mode::serial_in_order,
+                                                          [&](const std::shared_ptr<Item>& item) { accumulate(*item); }));
   });
+  // Runs still lit at the end of the sweep are cut short: left out like those cut by a gap.
+  std::vector<SliceAcc>& slices = a.slices;
+  const std::array<InstrumentAcc, 3>& instrument = a.instrument;
+  const double step_sum = a.step_sum;
+  const std::uint64_t steps = a.steps;
   out.step_deg = steps ? rad_to_deg(step_sum / static_cast<double>(steps)) : 0.0;
   double chord_all = 0.0;
   for (std::size_t i = 0; i < n_slices; ++i) {
@@ -409,14 +445,113 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
   return out;
 }
 
+int FlakeBtf::slice_of(int f, int i) const {
+  if (f < 0 || i < 0 || i >= max_theta_i || i + 1 >= static_cast<int>(slice_lut.size())) return -1;
+  const int first = slice_lut[static_cast<std::size_t>(i)], limit = slice_lut[static_cast<std::size_t>(i) + 1];
+  return first + f < limit ? first + f : -1;
+}
+
+void FlakeBtf::check(const std::string& where) const {
+  if (num_theta_f < 1 || num_theta_i < 1 || num_theta_f * num_theta_i >= 256)
+    throw DataError(fmt::format("{}: {} x {} slice bins (each >= 1, together below 256)", where, num_theta_f, num_theta_i));
+  if (max_theta_i < 0 || max_theta_i > num_theta_i)
+    throw DataError(fmt::format("{}: max_thetaI {} outside [0, {}]", where, max_theta_i, num_theta_i));
+  if (slice_lut.size() != static_cast<std::size_t>(max_theta_i) + 1)
+    throw DataError(fmt::format("{}: thetaFI_sliceLUT has {} entries, expected max_thetaI + 1 = {}", where,
+                                slice_lut.size(), max_theta_i + 1));
+  if (slice_lut.front() != 0) throw DataError(where + ": thetaFI_sliceLUT must start at 0");
+  for (std::size_t k = 1; k < slice_lut.size(); ++k) {
+    const int n = slice_lut[k] - slice_lut[k - 1];
+    if (n < 0 || n > num_theta_f)
+      throw DataError(fmt::format("{}: thetaFI_sliceLUT[{}] = {} after {}: theta_I bin {} would hold {} slices (0 to {})",
+                                  where, k, slice_lut[k], slice_lut[k - 1], k - 1, n, num_theta_f));
+  }
+  if (slices() > 255) throw DataError(fmt::format("{}: {} slices; the 8-bit LUT holds at most 255", where, slices()));
+  const std::size_t n = static_cast<std::size_t>(slices());
+  const std::size_t t = static_cast<std::size_t>(texture_size);
+  if (n > 0 && (texture_size < 1 || texture_size > 1024))
+    throw DataError(fmt::format("{}: texture size {} outside [1, 1024]", where, texture_size));
+  if (texels.size() != n * t * t * 3)
+    throw DataError(fmt::format("{}: BTFflakes has {} values, expected {} slices x {} x {} x 3", where, texels.size(), n,
+                                t, t));
+  if (slice_mean.size() != n * 3)
+    throw DataError(fmt::format("{}: slice_mean has {} values, expected {} slices x 3", where, slice_mean.size(), n));
+  for (std::size_t k = 0; k < texels.size(); ++k)
+    if (!(texels[k] >= 0.0) || !std::isfinite(texels[k]))
+      throw DataError(fmt::format("{}: BTFflakes value {} at index {} is not a finite value >= 0", where, texels[k], k));
+  if (!(ior >= 1.0 && ior <= 3.0)) throw DataError(fmt::format("{}: ior {} outside [1, 3]", where, ior));
+}
+
+FlakeBtf make_flake_btf(const FlakeStats& stats, int texture_size, std::uint64_t seed) {
+  if (texture_size < 1 || texture_size > 1024)
+    throw OptionError("flake BTF texture size", std::to_string(texture_size), "in [1, 1024]");
+  FlakeBtf b;
+  b.num_theta_f = stats.options.num_theta_f;
+  b.num_theta_i = stats.options.num_theta_i;
+  b.ior = stats.options.ior;
+  b.texture_size = texture_size;
+  // The theta_F range of each theta_I column: up to its last slice with a glint.
+  std::vector<int> columns(static_cast<std::size_t>(b.num_theta_i), 0);
+  for (const FlakeSlice& s : stats.slices)
+    if (s.glints > 0) {
+      auto& c = columns[static_cast<std::size_t>(s.theta_i)];
+      c = std::max(c, s.theta_f + 1);
+      b.max_theta_i = std::max(b.max_theta_i, s.theta_i + 1);
+    }
+  b.slice_lut.assign(1, 0);
+  for (int i = 0; i < b.max_theta_i; ++i) b.slice_lut.push_back(b.slice_lut.back() + columns[static_cast<std::size_t>(i)]);
+  const std::size_t t = static_cast<std::size_t>(texture_size), per = t * t * 3;
+  b.texels.assign(static_cast<std::size_t>(b.slices()) * per, 0.0);
+  b.slice_mean.assign(static_cast<std::size_t>(b.slices()) * 3, 0.0);
+  const colour::Xyz& white = colour::d65();
+  for (const FlakeSlice& s : stats.slices) {
+    const int k = b.slice_of(s.theta_f, s.theta_i);
+    if (k < 0 || s.clusters.empty() || s.inverse_cdf.empty()) continue;
+    std::mt19937_64 rng(seed ^ (0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(k + 1)));
+    auto uniform = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+    double* out = b.texels.data() + static_cast<std::size_t>(k) * per;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (std::size_t texel = 0; texel < t * t; ++texel) {
+      const double u_area = uniform(), u_cluster = uniform();
+      const colour::Lab u{uniform(), uniform(), uniform()};
+      if (u_area >= s.area()) continue;
+      const std::size_t steps = s.inverse_cdf.size();
+      const FlakeCluster& c = s.clusters[s.inverse_cdf[std::min(steps - 1, static_cast<std::size_t>(u_cluster * steps))]];
+      const colour::Lab lab{c.lo.L + u.L * (c.hi.L - c.lo.L), c.lo.a + u.a * (c.hi.a - c.lo.a),
+                            c.lo.b + u.b * (c.hi.b - c.lo.b)};
+      const colour::Rgb rgb = (colour::xyz_to_srgb(colour::lab_to_xyz(lab, white)) / kPi).cwiseMax(0.0);
+      for (int ch = 0; ch < 3; ++ch) out[texel * 3 + static_cast<std::size_t>(ch)] = rgb[ch];
+      sum += rgb;
+    }
+    for (int ch = 0; ch < 3; ++ch)
+      b.slice_mean[static_cast<std::size_t>(k) * 3 + static_cast<std::size_t>(ch)] = sum[ch] / static_cast<double>(t * t);
+  }
+  return b;
+}
+
+FlakeStats session_flakes(const acq::SessionDir& session, const brdf::Brdf& model, const FlakeOptions& options,
+                          const ExtractionOptions& extraction, const std::optional<std::filesystem::path>& calib_dir) {
+  // One look at the journal (it checks every image's checksum): the finished positions, or
+  // the error naming the missing ones.
+  const acq::SessionState state = session.inspect();
+  if (!state.todo.empty()) acq::require_complete_session(session);
+  std::vector<HdrFrame> frames;
+  for (const auto& e : state.finished)
+    if (e) frames.push_back({session.dir() / e->file, e->angle_deg});
+  if (frames.empty()) throw DataError(session.dir().string() + ": the session has no finished light position");
+  std::stable_sort(frames.begin(), frames.end(),
+                   [](const HdrFrame& a, const HdrFrame& b) { return a.angle_deg < b.angle_deg; });
+  const calib::RigCalibration cal = acq::session_calibration(session, calib_dir);
+  spdlog::info("comparing {} HDR images of {} with the smooth model", frames.size(), session.dir().string());
+  FlakeStats stats = extract_flakes(frames, cal, model, options, extraction);
+  // The session states its values' colour space (its images may not).
+  if (const std::string& cs = session.manifest().options.colour_space; !cs.empty()) stats.colour_space = cs;
+  return stats;
+}
+
 FlakeStats session_flakes(const std::filesystem::path& session_dir, const SessionFlakeOptions& options) {
   options.flakes.check();
   const acq::SessionDir session = acq::SessionDir::open(session_dir);
-  acq::require_complete_session(session);
-  std::vector<HdrFrame> frames = session_frames(session);
-  std::stable_sort(frames.begin(), frames.end(),
-                   [](const HdrFrame& a, const HdrFrame& b) { return a.angle_deg < b.angle_deg; });
-  const calib::RigCalibration cal = acq::session_calibration(session, options.calib_dir);
   std::unique_ptr<brdf::Brdf> model;
   if (!options.fit_file.empty()) {
     model = brdf::make_brdf(load_any_paint(options.fit_file).paint_spec());
@@ -435,11 +570,7 @@ FlakeStats session_flakes(const std::filesystem::path& session_dir, const Sessio
     if (!fit.converged) spdlog::warn("the fit of {} did not converge ({})", session_dir.string(), fit.termination);
     model = brdf::make_brdf(axf_from_fit_json(fit.fit, session_dir.string()).paint_spec());
   }
-  spdlog::info("comparing {} HDR images of {} with the smooth model", frames.size(), session_dir.string());
-  FlakeStats stats = extract_flakes(frames, cal, *model, options.flakes, options.extraction);
-  // The session states its values' colour space (its images may not).
-  if (const std::string& cs = session.manifest().options.colour_space; !cs.empty()) stats.colour_space = cs;
-  return stats;
+  return session_flakes(session, *model, options.flakes, options.extraction, options.calib_dir);
 }
 
 namespace {
@@ -494,7 +625,7 @@ Json flakes_to_json(const FlakeStats& s) {
            {{"ior", o.ior},
             {"num_theta_f", o.num_theta_f},
             {"num_theta_i", o.num_theta_i},
-            {"bin_convention", "floor(num * 2 theta / pi), no +0.5"},
+            {"bin_convention", kFlakeBinConvention},
             {"threshold_sigma", o.threshold_sigma},
             {"threshold_ratio", o.threshold_ratio},
             {"model_error", o.model_error},

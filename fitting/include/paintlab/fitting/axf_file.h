@@ -21,6 +21,7 @@
 #include "paintlab/core/colour.h"
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/ct_fit.h"
+#include "paintlab/fitting/flakes.h"
 
 namespace paintlab::fit {
 
@@ -32,7 +33,8 @@ inline constexpr const char* kAxfFormat = "paintlab-axf-like";
 // camera RGB" (a monochrome or uncalibrated camera; all that versions 1 and 2 could say).
 // Files of versions 1 and 2 are still read (as linear camera RGB). Version 4 (issue 16) adds
 // the flakes' colour to /flakes (tint_sd, interference, interference_chroma,
-// interference_shift_deg: all four or none).
+// interference_shift_deg: all four or none), /flake_stats (the measured flake statistics, the
+// flakes.json text) and /flake_btf (their CPA2-style flake BTF).
 inline constexpr int kAxfFormatVersion = 4;
 // The file holding a whole library (`paintlab library export --h5`): /paints/<name> groups,
 // each with the layout of one AxF-like file.
@@ -85,7 +87,9 @@ struct AxfPaint {
   std::optional<brdf::AxfCarPaintParams> carpaint;   // required when model == "axf-carpaint"
   std::optional<AxfCarPaintStddev> carpaint_stddev;  // only with carpaint
   std::optional<AxfCookTorrance> cook_torrance;      // required when model == "cook-torrance"
-  std::optional<brdf::FlakeSpec> flakes;
+  std::optional<brdf::FlakeSpec> flakes;             // the simulator's flake model (a paint file's)
+  std::optional<FlakeStats> flake_stats;              // measured flakes (version 4; docs/sparkle.md)
+  std::optional<FlakeBtf> flake_btf;                  // their CPA2-style flake BTF (version 4)
   std::optional<AxfFitQuality> fit_quality;
   AxfProvenance provenance;
 

@@ -44,6 +44,13 @@ struct ExportRequest {
   // or "both", and the lobes (default 3).
   std::optional<std::string> model;
   std::optional<int> lobes;
+  // The measured flakes to add as /flake_stats and /flake_btf (docs/sparkle.md): a
+  // flakes.json (`--flakes FILE`), or for a session input, measured here against the first
+  // fit (`--flakes auto`: session_flakes true). A paint without glints gets neither group.
+  std::optional<std::filesystem::path> flakes;
+  bool session_flakes = false;
+  FlakeOptions flake_options;
+  int flake_texture = 32;  // texels a side of each BTF slice
   std::string name;  // paint name (default: the session's sample name / the fit's name)
   std::uint64_t seed = 1;
   int threads = 0;  // 0 = all cores (fits and binning)
@@ -60,6 +67,7 @@ struct ExportResult {
   double bin_s = 0;                // wall time binning the session (0 for paint files)
   double fit_s = 0;                // wall time of the fits
   double write_s = 0;              // wall time writing the files (incl. hole filling)
+  double flakes_s = 0;             // wall time measuring the flakes (session_flakes)
 };
 ExportResult export_paint(const ExportRequest& request);
 

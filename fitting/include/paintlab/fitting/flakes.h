@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "paintlab/acquisition/session.h"
 #include "paintlab/brdf/brdf.h"
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/colour.h"
@@ -39,6 +40,10 @@
 #include "paintlab/fitting/extraction.h"
 
 namespace paintlab::fit {
+
+// The slices' bin index (flakes.json options.bin_convention, the AxF-like /flake_btf's
+// attribute bin_convention).
+inline constexpr const char* kFlakeBinConvention = "floor(num * 2 theta / pi), no +0.5";
 
 struct FlakeOptions {
   double ior = 1.5;              // the clear coat's, for the refracted directions, [1, 3]
@@ -53,6 +58,7 @@ struct FlakeOptions {
   double instrument_tolerance_deg = 5.0;  // (0, 30]
   int threads = 0;               // 0 = all cores
   void check() const;            // DataError naming the first violated rule
+  bool operator==(const FlakeOptions&) const = default;
 };
 
 // One colour cluster: the box of its colours, their mean, its probability in the slice.
@@ -60,6 +66,7 @@ struct FlakeCluster {
   colour::Lab lo, hi, mean;
   double probability = 0.0;
   std::uint64_t count = 0;
+  bool operator==(const FlakeCluster&) const = default;
 };
 
 struct FlakeSlice {
@@ -73,6 +80,7 @@ struct FlakeSlice {
   std::vector<std::uint8_t> inverse_cdf;        // cdf_steps cluster indices
   std::uint64_t runs = 0;            // glint runs whose middle falls in the slice
   double lifetime_deg = 0.0;         // from those runs (0 without)
+  bool operator==(const FlakeSlice&) const = default;
 };
 
 // Sparkle area and intensity at an instrument geometry.
@@ -83,6 +91,7 @@ struct InstrumentSparkle {
   double area_percent = 0.0;         // glints / pixels x 100
   double intensity = 0.0;            // mean contrast of those glints
   bool measured() const { return pixels > 0; }
+  bool operator==(const InstrumentSparkle&) const = default;
 };
 
 struct FlakeStats {
@@ -101,7 +110,42 @@ struct FlakeStats {
   // No glint anywhere: a paint without flakes (nothing to export).
   bool empty() const { return glints == 0; }
   const FlakeSlice* slice(int theta_f, int theta_i) const;
+  bool operator==(const FlakeStats&) const = default;
 };
+
+// The flakes as the AxF car-paint model's flake BTF (CPA2 as renderers read it, models.md):
+// slices of RGB textures, theta_I-major: slice_lut[i] is the first slice of theta_I bin i
+// and slice_lut[i + 1] its limit, so theta_I bin i holds theta_F bins 0 .. slice_lut[i + 1]
+// - slice_lut[i] - 1; bins at or past max_theta_i read zero (the flakes have died off). Bin
+// index floor(num * 2 theta / pi) for both angles (the SDK's; Unity adds 0.5). A texel
+// holds the BRDF (1/sr) a flake adds there: at a glinting texel a colour drawn from the
+// slice's clusters (inverse CDF, then uniform in the cluster's CIELAB box, back to linear
+// RGB over pi), elsewhere 0; a texel glints with the slice's sparkle area. slice_mean is each
+// slice's mean texel: the smooth model already holds the flakes' average, so a renderer that
+// adds the BTF to this paint's model adds (BTF - slice_mean) to keep it (docs/sparkle.md).
+struct FlakeBtf {
+  int num_theta_f = 0, num_theta_i = 0, max_theta_i = 0;
+  int texture_size = 0;            // texels a side
+  double ior = 1.5;                // the refraction the slices are in
+  std::vector<int> slice_lut;      // max_theta_i + 1 entries, non-decreasing, from 0
+  std::vector<double> texels;      // slices x size x size x 3 (row-major)
+  std::vector<double> slice_mean;  // slices x 3
+  int slices() const { return slice_lut.empty() ? 0 : slice_lut.back(); }
+  // The slice of bins (f, i), or -1 where the BTF reads zero.
+  int slice_of(int theta_f_bin, int theta_i_bin) const;
+  const double* texel(int slice, int x, int y) const {
+    return texels.data() + ((static_cast<std::size_t>(slice) * texture_size + static_cast<std::size_t>(y)) *
+                                texture_size + static_cast<std::size_t>(x)) * 3;
+  }
+  // DataError naming `where` and what is inconsistent (LUT order, sizes, negative texels).
+  void check(const std::string& where) const;
+  bool operator==(const FlakeBtf&) const = default;
+};
+
+// The BTF of measured statistics (empty stats: no slices, slice_lut all zero). The
+// textures are drawn from a random stream seeded by `seed` and the slice, so the same
+// statistics give the same file.
+FlakeBtf make_flake_btf(const FlakeStats& stats, int texture_size = 32, std::uint64_t seed = 1);
 
 // The slice indices of refracted directions (theta_F, theta_I from wi, wo in the shading
 // frame, z the normal): {f, i}, each in [0, num).
@@ -130,6 +174,10 @@ struct SessionFlakeOptions {
   std::optional<std::filesystem::path> calib_dir;
 };
 FlakeStats session_flakes(const std::filesystem::path& session_dir, const SessionFlakeOptions& options);
+// The same against a given model (`paintlab export --flakes auto`: the fit just made).
+FlakeStats session_flakes(const acq::SessionDir& session, const brdf::Brdf& model, const FlakeOptions& options,
+                          const ExtractionOptions& extraction,
+                          const std::optional<std::filesystem::path>& calib_dir = std::nullopt);
 
 // flakes.json: {"format": "paintlab-flakes", "format_version": 1, ...} (docs/sparkle.md).
 Json flakes_to_json(const FlakeStats& stats);
