@@ -74,6 +74,34 @@ AxfPaint full_paint() {
   f.interference_chroma = 0.6;
   f.interference_shift_deg = -4.0;
   p.flakes = f;
+  // Measured flakes (version 4): one slice with clusters, one without glints.
+  FlakeStats fs;
+  fs.colour_space = colour::kLinearSrgb;
+  fs.images = 12;
+  fs.runs = 7;
+  fs.lifetime_deg = 5.25;
+  fs.step_deg = 0.5;
+  FlakeSlice a;
+  a.theta_f = 1;
+  a.theta_i = 2;
+  a.pixels = 900;
+  a.glints = 45;
+  a.intensity_mean = 2.5;
+  a.intensity_quantiles = {0.7, 1.1, 2.0, 3.1, 4.4};
+  a.clusters = {{{60, -5, 3}, {70, 5, 9}, {65, 0, 6}, 0.75, 34}, {{90, 10, -20}, {95, 14, -12}, {92, 12, -16}, 0.25, 11}};
+  a.inverse_cdf = {0, 0, 0, 1};
+  a.runs = 7;
+  a.lifetime_deg = 5.25;
+  FlakeSlice b;
+  b.theta_f = 0;
+  b.theta_i = 0;
+  b.pixels = 400;
+  fs.slices = {b, a};
+  fs.pixels = 1300;
+  fs.glints = 45;
+  fs.instrument = {{15, 50, 5, 10.0, 2.0}, {45, 0, 0, 0, 0}, {75, 0, 0, 0, 0}};
+  p.flake_stats = fs;
+  p.flake_btf = make_flake_btf(fs, 4);
   AxfFitQuality q;
   q.log_rms = 0.0234;
   q.bins_used = 123456;
@@ -120,6 +148,32 @@ void create_doubles(hid_t f, const char* path, const std::vector<double>& v, con
 void replace_doubles(hid_t f, const char* path, const std::vector<double>& v, const std::vector<hsize_t>& dims) {
   ASSERT_GE(H5Ldelete(f, path, H5P_DEFAULT), 0);
   create_doubles(f, path, v, dims);
+}
+
+void replace_ints(hid_t f, const char* path, const std::vector<long long>& v, const std::vector<hsize_t>& dims) {
+  ASSERT_GE(H5Ldelete(f, path, H5P_DEFAULT), 0);
+  const hid_t space = dims.empty() ? H5Screate(H5S_SCALAR) : H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr);
+  const hid_t ds = H5Dcreate2(f, path, H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(ds, 0);
+  ASSERT_GE(H5Dwrite(ds, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), 0);
+  H5Dclose(ds);
+  H5Sclose(space);
+}
+
+// Replaces a 1-element fixed-length string dataset.
+void replace_string(hid_t f, const char* path, const std::string& text) {
+  ASSERT_GE(H5Ldelete(f, path, H5P_DEFAULT), 0);
+  const hsize_t one = 1;
+  const hid_t space = H5Screate_simple(1, &one, nullptr);
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, text.size());
+  H5Tset_cset(type, H5T_CSET_UTF8);
+  const hid_t ds = H5Dcreate2(f, path, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(ds, 0);
+  ASSERT_GE(H5Dwrite(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, text.data()), 0);
+  H5Dclose(ds);
+  H5Tclose(type);
+  H5Sclose(space);
 }
 
 void overwrite_doubles(hid_t f, const char* path, const std::vector<double>& v) {
@@ -189,6 +243,11 @@ TEST(AxfFile, RoundTripEveryField) {
   ASSERT_TRUE(back.cook_torrance->stddev);
   ASSERT_TRUE(back.flakes);
   EXPECT_EQ(*back.flakes, *p.flakes);
+  ASSERT_TRUE(back.flake_stats);
+  EXPECT_EQ(*back.flake_stats, *p.flake_stats);
+  ASSERT_TRUE(back.flake_btf);
+  EXPECT_EQ(*back.flake_btf, *p.flake_btf);
+  EXPECT_EQ(back.flake_btf->slice_lut, (std::vector<int>{0, 0, 0, 2}));  // theta_I bin 2 holds theta_F 0 and 1
   ASSERT_TRUE(back.fit_quality);
   EXPECT_EQ(*back.fit_quality, *p.fit_quality);
   EXPECT_EQ(back.provenance, p.provenance);
@@ -397,6 +456,25 @@ TEST(AxfFile, ValidatorNamesTheFieldOfEveryDamage) {
          H5Sclose(s);
        },
        "/flakes/lobes: value 4 at index 1 out of range [1, 3]"},
+      {"flake LUT out of order",
+       [](hid_t f) {
+         const hid_t d = H5Dopen2(f, "/flake_btf/thetaFI_sliceLUT", H5P_DEFAULT);
+         const long long v[4] = {0, 2, 1, 2};
+         H5Dwrite(d, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, v);
+         H5Dclose(d);
+       },
+       "/flake_btf: thetaFI_sliceLUT[2] = 1 after 2: theta_I bin 1 would hold -1 slices"},
+      {"negative flake texel",
+       [](hid_t f) {
+         std::vector<double> t(2 * 4 * 4 * 3, 0.0);
+         t[5] = -0.5;
+         overwrite_doubles(f, "/flake_btf/BTFflakes", t);
+       },
+       "/flake_btf: BTFflakes value -0.5 at index 5 is not a finite value >= 0"},
+      {"flake bins differ", [](hid_t f) { replace_ints(f, "/flake_btf/num_thetaF", {10}, {}); },
+       "/flake_btf: 10 x 12 slice bins, but /flake_stats has 12 x 12"},
+      {"flake stats not json", [](hid_t f) { replace_string(f, "/flake_stats/json", "{nope"); },
+       "/flake_stats/json: not JSON"},
       {"bad checksum", [](hid_t f) { set_string_attr(f, "/provenance", "session_sha256", "abc"); },
        "/provenance attribute 'session_sha256': 'abc' is not a SHA-256"},
       {"bad date", [](hid_t f) { set_string_attr(f, "/provenance", "measured_utc", "yesterday"); },

@@ -9,6 +9,7 @@
 
 #include "paintlab/brdf/paint.h"
 #include "paintlab/core/json.h"
+#include "paintlab/fitting/axf_file.h"
 #include "paintlab/fitting/flakes.h"
 #include "paintlab/sim/paint.h"
 #include "sim_session.h"
@@ -175,6 +176,70 @@ TEST(FlakesJson, RoundTripsAndRefusesDamage) {
   EXPECT_THAT(refused(Json{{"format", "other"}}), HasSubstr("f.json: not a flakes file"));
 }
 
+TEST(FlakeBtf, SlicesFollowTheLayoutRenderersReadAndTexelsTheStatistics) {
+  FlakeStats s;
+  s.options.num_theta_f = s.options.num_theta_i = 6;
+  auto slice = [&](int f, int i, double area, std::vector<colour::Lab> colours) {
+    FlakeSlice sl;
+    sl.theta_f = f;
+    sl.theta_i = i;
+    sl.pixels = 10000;
+    sl.glints = static_cast<std::uint64_t>(area * 10000);
+    if (!colours.empty()) cluster_flake_colours(colours, 50, 500, &sl.clusters, &sl.inverse_cdf);
+    s.slices.push_back(sl);
+  };
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g(0.0, 1.5);
+  std::vector<colour::Lab> colours;
+  for (int k = 0; k < 3000; ++k) {
+    const colour::Lab c = k % 3 == 0 ? colour::Lab{60, 0, 0} : k % 3 == 1 ? colour::Lab{80, 10, -10} : colour::Lab{70, -10, 10};
+    colours.push_back({c.L + g(rng), c.a + g(rng), c.b + g(rng)});
+  }
+  slice(0, 0, 0.3, colours);
+  slice(2, 0, 0.1, colours);   // theta_I bin 0 holds theta_F bins 0..2 (bin 1 unobserved: zero)
+  slice(0, 1, 0.0, {});        // observed, no glint: bin 1 holds no slice
+  slice(1, 3, 0.05, colours);  // max_thetaI 4
+  const FlakeBtf b = make_flake_btf(s, 64, 7);
+  EXPECT_EQ(b.max_theta_i, 4);
+  EXPECT_EQ(b.slice_lut, (std::vector<int>{0, 3, 3, 3, 5}));
+  EXPECT_EQ(b.slices(), 5);
+  EXPECT_EQ(b.slice_of(2, 0), 2);
+  EXPECT_EQ(b.slice_of(3, 0), -1);  // past the column's theta_F bins: zero
+  EXPECT_EQ(b.slice_of(0, 1), -1);
+  EXPECT_EQ(b.slice_of(1, 3), 4);
+  EXPECT_EQ(b.slice_of(0, 4), -1);  // at max_thetaI: zero
+  b.check("btf");
+  // Slice 0: texels glint with the slice's area, in the clusters' colours.
+  int lit = 0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const double* t = b.texel(0, x, y);
+      const Eigen::Vector3d rgb(t[0], t[1], t[2]);
+      mean += rgb;
+      if (rgb.maxCoeff() <= 0) continue;
+      ++lit;
+      const colour::Lab lab = colour::srgb_to_lab(rgb * kPi);
+      const bool inside = std::any_of(s.slices[0].clusters.begin(), s.slices[0].clusters.end(), [&](const FlakeCluster& c) {
+        return lab.L >= c.lo.L - 1e-6 && lab.L <= c.hi.L + 1e-6 && lab.a >= c.lo.a - 1e-6 && lab.a <= c.hi.a + 1e-6 &&
+               lab.b >= c.lo.b - 1e-6 && lab.b <= c.hi.b + 1e-6;
+      });
+      EXPECT_TRUE(inside) << x << ", " << y;
+    }
+  EXPECT_NEAR(lit / 4096.0, 0.3, 4 * std::sqrt(0.3 * 0.7 / 4096));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(b.slice_mean[static_cast<std::size_t>(c)], mean[c] / 4096, 1e-12);
+  // Slice 1 (theta_F bin 1, unobserved) is zero; the same statistics give the same BTF.
+  for (int k = 0; k < 64 * 64 * 3; ++k) ASSERT_EQ(b.texels[64 * 64 * 3 + static_cast<std::size_t>(k)], 0.0);
+  EXPECT_EQ(make_flake_btf(s, 64, 7), b);
+  EXPECT_NE(make_flake_btf(s, 64, 8).texels, b.texels);
+  // No glints: an empty BTF.
+  FlakeStats none;
+  none.slices = {s.slices[2]};
+  const FlakeBtf e = make_flake_btf(none, 8);
+  EXPECT_EQ(e.slices(), 0);
+  EXPECT_EQ(e.slice_lut, (std::vector<int>{0}));
+}
+
 // A 320 x 240 sweep every 3 deg of the silver metallic paint (its flakes coloured), and
 // its statistics against the true smooth BRDF.
 struct SilverSweep {
@@ -262,6 +327,27 @@ TEST(FlakesCli, WritesFlakesJsonAndRefusesBadInput) {
   EXPECT_EQ(s2.options.num_theta_i, 10);
   // The fitted model is close to the paint: about as many glints.
   EXPECT_NEAR(static_cast<double>(s2.glints), static_cast<double>(s.glints), 0.2 * static_cast<double>(s.glints));
+
+  // Export with the flakes measured against the fit made there, and with a flakes.json.
+  const fs::path axf = sim->dir / "silver.axf.h5";
+  r = test::run_paintlab("export " + session.string() + calib + " --axf " + axf.string() + " --flakes auto");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("flake BTF of"));
+  const AxfPaint exported = read_axf_file(axf);
+  ASSERT_TRUE(exported.flake_stats && exported.flake_btf);
+  EXPECT_GT(exported.flake_btf->slices(), 0);
+  EXPECT_NEAR(static_cast<double>(exported.flake_stats->glints), static_cast<double>(s.glints), 0.2 * static_cast<double>(s.glints));
+  r = test::run_paintlab("axf show " + axf.string());
+  EXPECT_THAT(r.out, HasSubstr("measured flakes: sparkle area"));
+  EXPECT_THAT(r.out, HasSubstr("flake BTF:"));
+  const fs::path axf2 = sim->dir / "from-paint.axf.h5";
+  r = test::run_paintlab("export " + paint.string() + " --axf " + axf2.string() + " --flakes " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(*read_axf_file(axf2).flake_stats, s);
+  r = test::run_paintlab("export " + paint.string() + " --axf " + (sim->dir / "x.axf.h5").string() + " --flakes auto");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--flakes auto measures the flakes of a session"));
+  EXPECT_FALSE(fs::exists(sim->dir / "x.axf.h5"));
 
   // Bad input: nothing written.
   const fs::path bad = sim->dir / "bad.json";
