@@ -24,6 +24,8 @@ find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d feature
 find_package(TBB REQUIRED)
 find_package(Ceres 2 REQUIRED)
 find_package(HDF5 REQUIRED COMPONENTS C)
+# LEMON (liblemon-dev): the network simplex of the flake colour transport (header-only parts).
+find_package(lemon REQUIRED CONFIG)
 pkg_check_modules(MODBUS REQUIRED IMPORTED_TARGET libmodbus>=3.1)
 pkg_check_modules(GPIOD REQUIRED IMPORTED_TARGET libgpiod>=1.6)
 if(GPIOD_VERSION VERSION_GREATER_EQUAL 2.0)

@@ -28,6 +28,9 @@ packages=(
   # reports (paintlab report): gnuplot's SVG terminal draws the plots; the report test loads the
   # page in Debian's headless Chromium
   gnuplot-nox chromium
+  # sparkle (fitting/flakes.h): LEMON's network simplex for the exact transport between flake
+  # colour distributions (the earth mover's distance of docs/sparkle.md)
+  liblemon-dev
 )
 
 missing=()

@@ -1,5 +1,7 @@
 #include "paintlab/fitting/flakes.h"
 
+#include <lemon/network_simplex.h>
+#include <lemon/smart_graph.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
@@ -527,6 +529,97 @@ FlakeBtf make_flake_btf(const FlakeStats& stats, int texture_size, std::uint64_t
       b.slice_mean[static_cast<std::size_t>(k) * 3 + static_cast<std::size_t>(ch)] = sum[ch] / static_cast<double>(t * t);
   }
   return b;
+}
+
+double flake_colour_emd(const std::vector<FlakeCluster>& a, const std::vector<FlakeCluster>& b) {
+  if (a.empty() || b.empty()) return 0.0;
+  constexpr long long kMass = 1'000'000'000;
+  constexpr double kCostScale = 1e6;
+  // Integer masses with the same total on both sides (the rounding goes to the largest).
+  auto masses = [&](const std::vector<FlakeCluster>& c) {
+    double total = 0.0;
+    for (const FlakeCluster& x : c) total += x.probability;
+    std::vector<long long> m(c.size());
+    long long sum = 0;
+    std::size_t largest = 0;
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      m[i] = std::llround(c[i].probability / total * static_cast<double>(kMass));
+      sum += m[i];
+      if (m[i] > m[largest]) largest = i;
+    }
+    m[largest] += kMass - sum;
+    return m;
+  };
+  const std::vector<long long> ma = masses(a), mb = masses(b);
+  lemon::SmartDigraph g;
+  std::vector<lemon::SmartDigraph::Node> na, nb;
+  for (std::size_t i = 0; i < a.size(); ++i) na.push_back(g.addNode());
+  for (std::size_t j = 0; j < b.size(); ++j) nb.push_back(g.addNode());
+  lemon::SmartDigraph::ArcMap<long long> cost(g);
+  lemon::SmartDigraph::NodeMap<long long> supply(g);
+  for (std::size_t i = 0; i < a.size(); ++i) supply[na[i]] = ma[i];
+  for (std::size_t j = 0; j < b.size(); ++j) supply[nb[j]] = -mb[j];
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      const auto arc = g.addArc(na[i], nb[j]);
+      const double d = std::sqrt(std::pow(a[i].mean.L - b[j].mean.L, 2) + std::pow(a[i].mean.a - b[j].mean.a, 2) +
+                                 std::pow(a[i].mean.b - b[j].mean.b, 2));
+      cost[arc] = std::llround(d * kCostScale);
+    }
+  lemon::NetworkSimplex<lemon::SmartDigraph, long long, long long> ns(g);
+  ns.costMap(cost).supplyMap(supply);
+  if (ns.run() != lemon::NetworkSimplex<lemon::SmartDigraph, long long, long long>::OPTIMAL)
+    throw DataError("flake colour transport: no optimal solution (unbalanced masses)");
+  return static_cast<double>(ns.totalCost<long double>()) / (static_cast<double>(kMass) * kCostScale);
+}
+
+namespace {
+std::uint64_t mix(std::uint64_t z) {  // splitmix64's finaliser
+  z += 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+}  // namespace
+
+FlakeSparkle::FlakeSparkle(FlakeBtf btf, double lifetime_deg, std::uint64_t seed)
+    : btf_(std::move(btf)), grid_rad_(2.0 * deg_to_rad(lifetime_deg)), seed_(seed) {
+  btf_.check("flake BTF");
+  if (!(lifetime_deg > 0.0 && lifetime_deg < 90.0))
+    throw DataError(fmt::format("flake sparkle: lifetime {} deg outside (0, 90)", lifetime_deg));
+  const std::size_t t = static_cast<std::size_t>(btf_.texture_size);
+  dark_.assign(static_cast<std::size_t>(btf_.slices()) * 3, 0.0);
+  for (int k = 0; k < btf_.slices(); ++k) {
+    std::size_t lit = 0;
+    for (std::size_t i = 0; i < t * t; ++i) {
+      const double* v = btf_.texels.data() + (static_cast<std::size_t>(k) * t * t + i) * 3;
+      lit += (v[0] > 0 || v[1] > 0 || v[2] > 0) ? 1 : 0;
+    }
+    const double g = static_cast<double>(lit) / static_cast<double>(t * t);
+    if (g >= 1.0) continue;
+    for (std::size_t c = 0; c < 3; ++c)
+      dark_[static_cast<std::size_t>(k) * 3 + c] = -btf_.slice_mean[static_cast<std::size_t>(k) * 3 + c] / (1.0 - g);
+  }
+}
+
+brdf::Rgb FlakeSparkle::delta(std::uint64_t cell, const Vec3& wi, const Vec3& wo) const {
+  const auto bins = flake_slice_of(wi, wo, btf_.ior, btf_.num_theta_f, btf_.num_theta_i);
+  const int k = btf_.slice_of(bins[0], bins[1]);
+  if (k < 0) return brdf::Rgb::Zero();
+  // The half-vector cell: azimuthal-equidistant coordinates in units of the grid, offset
+  // per surface cell.
+  const Vec3 h = (wi + wo).normalized();
+  const double theta = std::acos(std::clamp(h.z(), -1.0, 1.0)), phi = std::atan2(h.y(), h.x());
+  const std::uint64_t c0 = mix(seed_ ^ mix(cell));
+  const double ox = static_cast<double>(c0 >> 11) * 0x1.0p-53, oy = static_cast<double>(mix(c0) >> 11) * 0x1.0p-53;
+  const auto gx = static_cast<std::int64_t>(std::floor(theta * std::cos(phi) / grid_rad_ + ox));
+  const auto gy = static_cast<std::int64_t>(std::floor(theta * std::sin(phi) / grid_rad_ + oy));
+  const std::uint64_t pick = mix(c0 ^ mix(static_cast<std::uint64_t>(gx) * 0x100000001B3ull ^ static_cast<std::uint64_t>(gy)));
+  const auto t = static_cast<std::uint64_t>(btf_.texture_size);
+  const double* v = btf_.texel(k, static_cast<int>(pick % t), static_cast<int>((pick / t) % t));
+  if (v[0] > 0 || v[1] > 0 || v[2] > 0) return brdf::Rgb(v[0], v[1], v[2]);
+  const double* d = dark_.data() + static_cast<std::size_t>(k) * 3;
+  return brdf::Rgb(d[0], d[1], d[2]);
 }
 
 FlakeStats session_flakes(const acq::SessionDir& session, const brdf::Brdf& model, const FlakeOptions& options,

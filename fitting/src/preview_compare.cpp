@@ -8,6 +8,7 @@
 
 #include "paintlab/core/error.h"
 #include "paintlab/core/robust.h"
+#include "paintlab/core/geometry.h"
 #include "paintlab/fitting/preview.h"
 
 namespace paintlab::fit {
@@ -26,8 +27,64 @@ void CompareOptions::check() const {
   if (!(window_px >= 0 && window_px <= 50)) fail("window_px", window_px, "[0, 50]");
 }
 
+namespace {
+
+// The model's value at camera pixel (cx, cy) in the unit of the session's images (rate =
+// f scale E) and the sphere point, or nothing off the sphere (or unlit).
+struct RigPixel {
+  Rgb rate;
+  calib::SurfacePoint point;
+  Vec3 wi;
+};
+std::optional<RigPixel> rig_pixel(const brdf::Brdf& brdf, const calib::RigCalibration& cal, const Vec3& led,
+                                  double angle_deg, int cx, int cy, const FlakeSparkle* sparkle, bool* on_sphere) {
+  const auto sp = cal.sphere_point_at(Vec2(cx, cy));
+  *on_sphere = sp.has_value();
+  if (!sp) return std::nullopt;
+  const Vec3 wi = (led - sp->point).normalized();
+  const double per_rate = cal.brdf(1.0, angle_deg, *sp);  // 1 / (scale E)
+  if (!(per_rate > 0) || !std::isfinite(per_rate)) return std::nullopt;
+  const Mat3 frame = frame_from_normal(sp->normal);
+  const Vec3 wi_l = frame.transpose() * wi, wo_l = frame.transpose() * sp->to_camera;
+  Rgb f = brdf.eval(wi_l, wo_l);
+  // The camera pixel is the surface cell: the camera does not move relative to the sphere.
+  if (sparkle) {
+    const auto cell = static_cast<std::uint64_t>(cy) * static_cast<std::uint64_t>(cal.camera().width_px) +
+                      static_cast<std::uint64_t>(cx);
+    f = (f + sparkle->delta(cell, wi_l, wo_l)).max(0.0);
+  }
+  return RigPixel{f / per_rate, *sp, wi};
+}
+
+}  // namespace
+
+ImageF render_rig(const brdf::Brdf& brdf, const calib::RigCalibration& cal, double angle_deg,
+                  const FlakeSparkle* sparkle) {
+  cal.require({calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile});
+  const calib::CameraModel& cam = cal.camera();
+  ImageF out(cam.width_px, cam.height_px, 3, 0.0f);
+  const Vec3 led = cal.light_model().led_position_cam(angle_deg);
+  // Only the rows and columns the sphere can cover.
+  const calib::SphereFit& sphere = *cal.sphere();
+  const Vec2 c_px = cam.project(sphere.centre_cam_m);
+  const double r_px = 1.25 * std::max(cam.fx(), cam.fy()) * sphere.radius_m / sphere.centre_cam_m.z() + 2.0;
+  const int x0 = std::clamp(static_cast<int>(std::floor(c_px.x() - r_px)), 0, cam.width_px - 1);
+  const int x1 = std::clamp(static_cast<int>(std::ceil(c_px.x() + r_px)), 0, cam.width_px - 1);
+  const int y0 = std::clamp(static_cast<int>(std::floor(c_px.y() - r_px)), 0, cam.height_px - 1);
+  const int y1 = std::clamp(static_cast<int>(std::ceil(c_px.y() + r_px)), 0, cam.height_px - 1);
+  tbb::parallel_for(tbb::blocked_range<int>(y0, y1 + 1), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = x0; x <= x1; ++x) {
+        bool on = false;
+        if (const auto p = rig_pixel(brdf, cal, led, angle_deg, x, y, sparkle, &on))
+          for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(p->rate[c]);
+      }
+  });
+  return out;
+}
+
 Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration& cal, const ExrImage& hdr,
-                             double angle_deg, const CompareOptions& o) {
+                             double angle_deg, const CompareOptions& o, const FlakeSparkle* sparkle) {
   o.check();
   cal.require({calib::kCameraFile, calib::kSphereFile, calib::kLightFile, calib::kScaleFile});
   const calib::CameraModel& cam = cal.camera();
@@ -64,16 +121,15 @@ Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration
       for (int x = 0; x < W; ++x) {
         const int cx = x0 + x, cy = y0 + y;
         for (int c = 0; c < 3; ++c) out.measured.at(x, y, c) = planes[c]->at(cx, cy);
-        const auto sp = cal.sphere_point_at(Vec2(cx, cy));
-        if (!sp) continue;
+        bool on = false;
+        const auto p = rig_pixel(brdf, cal, led, angle_deg, cx, cy, sparkle, &on);
         const std::size_t i = static_cast<std::size_t>(y) * W + x;
-        on_sphere[i] = 1;
-        const Vec3 wi = (led - sp->point).normalized();
-        const double per_rate = cal.brdf(1.0, angle_deg, *sp);  // 1 / (scale E)
-        if (!(per_rate > 0) || !std::isfinite(per_rate)) continue;
-        Rgb f = eval_world(brdf, sp->normal, wi, sp->to_camera);
-        if (!rgb) f = Rgb::Constant(f.mean());
-        for (int c = 0; c < 3; ++c) out.model.at(x, y, c) = static_cast<float>(f[c] / per_rate);
+        on_sphere[i] = on ? 1 : 0;
+        if (!p) continue;
+        const calib::SurfacePoint* sp = &p->point;
+        const Vec3& wi = p->wi;
+        const Rgb f = rgb ? p->rate : Rgb::Constant(p->rate.mean());
+        for (int c = 0; c < 3; ++c) out.model.at(x, y, c) = static_cast<float>(f[c]);
         const bool valid_px = !valid || valid->at(cx, cy) > 0.5f;
         geometry_ok[i] = valid_px && sp->normal.dot(wi) >= o.min_cos && sp->normal.dot(sp->to_camera) >= o.min_cos;
       }

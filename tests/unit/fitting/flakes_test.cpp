@@ -115,6 +115,27 @@ TEST(FlakeClusters, FewColoursAreTheirOwnClustersAndNoneGiveNone) {
   EXPECT_TRUE(cdf.empty());
 }
 
+TEST(FlakeClusters, EarthMoversDistanceIsTheOptimalTransport) {
+  auto cl = [](double L, double a, double b, double p) {
+    FlakeCluster c;
+    c.mean = {L, a, b};
+    c.probability = p;
+    return c;
+  };
+  // A whole distribution moved by a vector: the vector's length.
+  const std::vector<FlakeCluster> x = {cl(50, 0, 0, 0.5), cl(60, 10, 0, 0.3), cl(40, -5, 5, 0.2)};
+  std::vector<FlakeCluster> y = x;
+  for (auto& c : y) c.mean = {c.mean.L + 3, c.mean.a + 4, c.mean.b};
+  EXPECT_NEAR(flake_colour_emd(x, y), 5.0, 1e-6);
+  EXPECT_NEAR(flake_colour_emd(x, x), 0.0, 1e-9);
+  // Two against two by hand: moving 0.5 from (0,0,0) and 0.5 from (10,0,0) to (0,0,0) x 0.3
+  // and (10,0,0) x 0.7: 0.2 crosses 10 dE, the rest stays: 2.
+  EXPECT_NEAR(flake_colour_emd({cl(0, 0, 0, 0.5), cl(10, 0, 0, 0.5)}, {cl(0, 0, 0, 0.3), cl(10, 0, 0, 0.7)}), 2.0, 1e-6);
+  // Probabilities that do not sum to 1 are normalised; an empty side gives 0.
+  EXPECT_NEAR(flake_colour_emd({cl(0, 0, 0, 2)}, {cl(0, 0, 7, 0.1)}), 7.0, 1e-6);
+  EXPECT_EQ(flake_colour_emd({}, x), 0.0);
+}
+
 FlakeStats small_stats() {
   FlakeStats s;
   s.colour_space = colour::kLinearSrgb;

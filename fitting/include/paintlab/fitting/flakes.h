@@ -162,6 +162,38 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
                           const brdf::Brdf& model, const FlakeOptions& options = {},
                           const ExtractionOptions& extraction = {});
 
+// The earth mover's distance between two slices' colour distributions (their clusters'
+// means with their probabilities; CIELAB Euclidean distance as the ground cost, dE76): an
+// exact transport by LEMON's network simplex, on masses scaled to integers (1e9 each side)
+// and costs to micro-dE. 0 when either is empty.
+double flake_colour_emd(const std::vector<FlakeCluster>& a, const std::vector<FlakeCluster>& b);
+
+// Sparkle drawn from a flake BTF, for renderers (docs/sparkle.md "Rendering with sparkle").
+// A surface cell (an id fixed on the surface: the pixel of a camera that does not move
+// relative to the sample) picks a texel of the slice of its directions (the nearest bins;
+// Unity interpolates the four neighbouring slices bilinearly, which blends glints of
+// unrelated texels). The BRDF to add to the smooth model is the texel's value where it
+// glints and -slice_mean / (1 - g) where it is dark (g the slice's share of glinting
+// texels), so the sparkle averages to zero and the smooth model stays the paint's mean. The
+// cell's texel is drawn again whenever the air half vector moves into another cell of a
+// grid of 2 x lifetime on the hemisphere (azimuthal-equidistant, offset at random per
+// surface cell): chords across such cells average pi lifetime / 2, as a flake's do, so a
+// glint lasts about the measured lifetime. Deterministic: the same cell, directions and
+// seed give the same value.
+class FlakeSparkle {
+ public:
+  FlakeSparkle(FlakeBtf btf, double lifetime_deg, std::uint64_t seed = 1);
+  // wi, wo in the shading frame (z the normal).
+  brdf::Rgb delta(std::uint64_t cell, const Vec3& wi, const Vec3& wo) const;
+  const FlakeBtf& btf() const { return btf_; }
+
+ private:
+  FlakeBtf btf_;
+  double grid_rad_;
+  std::uint64_t seed_;
+  std::vector<double> dark_;  // per slice and channel: what a dark texel adds (<= 0)
+};
+
 // A session's flakes (`paintlab flakes SESSION`): its finished positions in sweep order,
 // its calibration (calib_dir, default: its rig's), against the model of `fit_file` (a
 // fit.json, .axf.h5 or paint .toml) or, without one, a Cook-Torrance fit of `lobes` lobes

@@ -28,6 +28,7 @@
 #include "paintlab/calibration/rig_calibration.h"
 #include "paintlab/core/image.h"
 #include "paintlab/core/image_io.h"
+#include "paintlab/fitting/flakes.h"
 
 namespace paintlab::fit {
 
@@ -148,8 +149,18 @@ struct Comparison {
 // measured: an HDR image of the session (channels R, G, B or Y, optional "valid"); the
 // calibration needs camera, sphere, light and scale (CalibrationError names what is
 // missing). DataError when the image size differs from the camera's.
+// With `sparkle`, the model panel draws the paint's measured flakes (flakes.h), each camera
+// pixel a surface cell.
 Comparison render_comparison(const brdf::Brdf& brdf, const calib::RigCalibration& calibration,
-                             const ExrImage& measured, double table_angle_deg, const CompareOptions& options = {});
+                             const ExrImage& measured, double table_angle_deg, const CompareOptions& options = {},
+                             const FlakeSparkle* sparkle = nullptr);
+
+// The paint rendered in the rig geometry over the whole camera image, in the unit of the
+// session's HDR images (linear DN/s: f scale E, as render_comparison's model panel), RGB, 0
+// off the sphere; with `sparkle` each camera pixel is a surface cell. For simulated
+// comparisons (tests, bench) of the exported flake model with the measurement.
+ImageF render_rig(const brdf::Brdf& brdf, const calib::RigCalibration& calibration, double table_angle_deg,
+                  const FlakeSparkle* sparkle = nullptr);
 
 // Writes a linear RGB image as EXR (channels R, G, B) atomically.
 void write_exr_rgb(const std::filesystem::path& path, const ImageF& rgb, const std::string& description);
