@@ -51,6 +51,7 @@ double angle_between_units(const Vec3& a, const Vec3& b) {
 // One glint of a slice: its contrast and colour.
 struct Glint {
   float contrast;
+  float model_y;  // Y of the smooth model there (1/sr)
   colour::Lab lab;
 };
 
@@ -141,8 +142,7 @@ void cluster_flake_colours(const std::vector<colour::Lab>& colours, int clusters
     std::array<std::int32_t, 8> child;
     int level;
     std::uint64_t count = 0;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum2 = Eigen::Vector3d::Zero();
     bool leaf() const {
       return std::all_of(child.begin(), child.end(), [](std::int32_t c) { return c < 0; });
     }
@@ -166,8 +166,7 @@ void cluster_flake_colours(const std::vector<colour::Lab>& colours, int clusters
       Node& n = nodes[static_cast<std::size_t>(at)];
       n.count += 1;
       n.sum += v;
-      n.lo = n.lo.cwiseMin(v);
-      n.hi = n.hi.cwiseMax(v);
+      n.sum2 += v.cwiseProduct(v);
       if (level == kDepth) break;
       const int shift = kDepth - 1 - level;
       const int idx = (((q[0] >> shift) & 1) << 2) | (((q[1] >> shift) & 1) << 1) | ((q[2] >> shift) & 1);
@@ -213,9 +212,13 @@ void cluster_flake_colours(const std::vector<colour::Lab>& colours, int clusters
       c.count = n.count;
       c.probability = static_cast<double>(n.count) / total;
       const Eigen::Vector3d m = n.sum / static_cast<double>(n.count);
+      // The cuboid whose uniform draws have the cluster's mean and variance per axis: mean
+      // +- sqrt(3) sd (the bounding box of a merged leaf is far wider than its colours).
+      const Eigen::Vector3d var = (n.sum2 / static_cast<double>(n.count) - m.cwiseProduct(m)).cwiseMax(0.0);
+      const Eigen::Vector3d half = (3.0 * var).cwiseSqrt();
       c.mean = {m[0], m[1], m[2]};
-      c.lo = {n.lo[0], n.lo[1], n.lo[2]};
-      c.hi = {n.hi[0], n.hi[1], n.hi[2]};
+      c.lo = {m[0] - half[0], m[1] - half[1], m[2] - half[2]};
+      c.hi = {m[0] + half[0], m[1] + half[1], m[2] + half[2]};
       out->push_back(c);
       continue;
     }
@@ -257,6 +260,7 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
     std::uint8_t glint;       // 0 or 1
     std::uint8_t instrument;  // bit g: within the tolerance of instrument geometry g
     float contrast;
+    float model_y;
     Eigen::Vector3f h;
     float lab[3];             // glints only
   };
@@ -291,9 +295,12 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
       o.glint = l_model > 0.0 && l_excess > options.threshold_sigma * sigma &&
                 l_excess > options.threshold_ratio * l_model;
       o.contrast = l_model > 0.0 ? static_cast<float>(l_excess / l_model) : 0.0f;
+      o.model_y = static_cast<float>(l_model);
       o.h = v.h_cam.cast<float>();
       if (o.glint) {
-        const Eigen::Vector3d excess = (meas - mod).cwiseMax(0.0) * kPi;
+        // The glint's contrast colour: its excess over the model's luminance there (Y = the
+        // contrast; L* 100 at a contrast of 1).
+        const Eigen::Vector3d excess = (meas - mod).cwiseMax(0.0) / l_model;
         const colour::Lab lab = colour::srgb_to_lab(item->mono ? colour::Rgb::Constant(excess[0]) : colour::Rgb(excess));
         o.lab[0] = static_cast<float>(lab.L);
         o.lab[1] = static_cast<float>(lab.a);
@@ -344,7 +351,7 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
       SliceAcc& s = a.slices[o.slice];
       s.pixels += 1;
       if (o.glint) {
-        s.glints.push_back({o.contrast, colour::Lab{o.lab[0], o.lab[1], o.lab[2]}});
+        s.glints.push_back({o.contrast, o.model_y, colour::Lab{o.lab[0], o.lab[1], o.lab[2]}});
         if (tr.last_glint == t - 1 && tr.run_len > 0) {
           tr.run_len += 1;
         } else {
@@ -416,13 +423,15 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
         if (x.lab.a != y.lab.a) return x.lab.a < y.lab.a;
         return x.lab.b < y.lab.b;
       });
-      double sum = 0.0;
+      double sum = 0.0, model_y = 0.0;
       for (std::size_t k = 0; k < a.glints.size(); ++k) {
         c[k] = a.glints[k].contrast;
         labs[k] = a.glints[k].lab;
         sum += c[k];
+        model_y += a.glints[k].model_y;
       }
       s.intensity_mean = sum / static_cast<double>(c.size());
+      s.glint_model_y = model_y / static_cast<double>(c.size());
       for (std::size_t q = 0; q < kQuantiles.size(); ++q)
         s.intensity_quantiles[q] = c[std::min(c.size() - 1, static_cast<std::size_t>(kQuantiles[q] * c.size()))];
       if (s.glints >= static_cast<std::uint64_t>(options.min_glints))
@@ -505,7 +514,6 @@ FlakeBtf make_flake_btf(const FlakeStats& stats, int texture_size, std::uint64_t
   const std::size_t t = static_cast<std::size_t>(texture_size), per = t * t * 3;
   b.texels.assign(static_cast<std::size_t>(b.slices()) * per, 0.0);
   b.slice_mean.assign(static_cast<std::size_t>(b.slices()) * 3, 0.0);
-  const colour::Xyz& white = colour::d65();
   for (const FlakeSlice& s : stats.slices) {
     const int k = b.slice_of(s.theta_f, s.theta_i);
     if (k < 0 || s.clusters.empty() || s.inverse_cdf.empty()) continue;
@@ -514,14 +522,12 @@ FlakeBtf make_flake_btf(const FlakeStats& stats, int texture_size, std::uint64_t
     double* out = b.texels.data() + static_cast<std::size_t>(k) * per;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (std::size_t texel = 0; texel < t * t; ++texel) {
-      const double u_area = uniform(), u_cluster = uniform();
-      const colour::Lab u{uniform(), uniform(), uniform()};
+      const double u_area = uniform(), u_cluster = uniform(), u_lightness = uniform();
       if (u_area >= s.area()) continue;
       const std::size_t steps = s.inverse_cdf.size();
       const FlakeCluster& c = s.clusters[s.inverse_cdf[std::min(steps - 1, static_cast<std::size_t>(u_cluster * steps))]];
-      const colour::Lab lab{c.lo.L + u.L * (c.hi.L - c.lo.L), c.lo.a + u.a * (c.hi.a - c.lo.a),
-                            c.lo.b + u.b * (c.hi.b - c.lo.b)};
-      const colour::Rgb rgb = (colour::xyz_to_srgb(colour::lab_to_xyz(lab, white)) / kPi).cwiseMax(0.0);
+      // The contrast colour times the model's luminance at the slice's glints: the BRDF a glint adds.
+      const colour::Rgb rgb = draw_flake_colour(c, u_lightness) * s.glint_model_y;
       for (int ch = 0; ch < 3; ++ch) out[texel * 3 + static_cast<std::size_t>(ch)] = rgb[ch];
       sum += rgb;
     }
@@ -573,6 +579,21 @@ double flake_colour_emd(const std::vector<FlakeCluster>& a, const std::vector<Fl
   return static_cast<double>(ns.totalCost<long double>()) / (static_cast<double>(kMass) * kCostScale);
 }
 
+std::vector<FlakeCluster> flake_chromaticities(const std::vector<FlakeCluster>& clusters) {
+  std::vector<FlakeCluster> out;
+  for (const FlakeCluster& c : clusters) {
+    const colour::Xyz xyz = colour::lab_to_xyz(c.mean, colour::d65());
+    if (!(xyz[1] > 0.0)) continue;
+    FlakeCluster n;
+    n.mean = colour::xyz_to_lab(xyz / xyz[1], colour::d65());
+    n.lo = n.hi = n.mean;
+    n.probability = c.probability;
+    n.count = c.count;
+    out.push_back(n);
+  }
+  return out;
+}
+
 namespace {
 std::uint64_t mix(std::uint64_t z) {  // splitmix64's finaliser
   z += 0x9E3779B97F4A7C15ull;
@@ -582,44 +603,68 @@ std::uint64_t mix(std::uint64_t z) {  // splitmix64's finaliser
 }
 }  // namespace
 
-FlakeSparkle::FlakeSparkle(FlakeBtf btf, double lifetime_deg, std::uint64_t seed)
-    : btf_(std::move(btf)), grid_rad_(2.0 * deg_to_rad(lifetime_deg)), seed_(seed) {
-  btf_.check("flake BTF");
-  if (!(lifetime_deg > 0.0 && lifetime_deg < 90.0))
-    throw DataError(fmt::format("flake sparkle: lifetime {} deg outside (0, 90)", lifetime_deg));
-  const std::size_t t = static_cast<std::size_t>(btf_.texture_size);
-  dark_.assign(static_cast<std::size_t>(btf_.slices()) * 3, 0.0);
-  for (int k = 0; k < btf_.slices(); ++k) {
-    std::size_t lit = 0;
-    for (std::size_t i = 0; i < t * t; ++i) {
-      const double* v = btf_.texels.data() + (static_cast<std::size_t>(k) * t * t + i) * 3;
-      lit += (v[0] > 0 || v[1] > 0 || v[2] > 0) ? 1 : 0;
-    }
-    const double g = static_cast<double>(lit) / static_cast<double>(t * t);
-    if (g >= 1.0) continue;
-    for (std::size_t c = 0; c < 3; ++c)
-      dark_[static_cast<std::size_t>(k) * 3 + c] = -btf_.slice_mean[static_cast<std::size_t>(k) * 3 + c] / (1.0 - g);
+namespace {
+// The linear RGB of a CIELAB colour (white Y = 1).
+Eigen::Vector3d rgb_of(const colour::Lab& lab) { return colour::xyz_to_srgb(colour::lab_to_xyz(lab, colour::d65())); }
+double uniform_of(std::uint64_t bits) { return static_cast<double>(bits >> 11) * 0x1.0p-53; }
+}  // namespace
+
+Eigen::Vector3d draw_flake_colour(const FlakeCluster& c, double u) {
+  const colour::Xyz mean = colour::lab_to_xyz(c.mean, colour::d65());
+  if (!(mean[1] > 0.0)) return Eigen::Vector3d::Zero();
+  const colour::Lab lightness{c.lo.L + u * (c.hi.L - c.lo.L), 0.0, 0.0};
+  const double y = colour::lab_to_xyz(lightness, colour::d65())[1];
+  return colour::xyz_to_srgb(mean / mean[1] * y).cwiseMax(0.0);
+}
+
+FlakeSparkle::FlakeSparkle(const FlakeStats& stats, std::uint64_t seed)
+    : num_f_(stats.options.num_theta_f),
+      num_i_(stats.options.num_theta_i),
+      ior_(stats.options.ior),
+      mono_(stats.mono),
+      grid_rad_(2.0 * deg_to_rad(stats.lifetime_deg)),
+      seed_(seed) {
+  index_.assign(static_cast<std::size_t>(num_f_) * static_cast<std::size_t>(num_i_), -1);
+  if (stats.empty()) return;
+  if (!(stats.lifetime_deg > 0.0 && stats.lifetime_deg < 90.0))
+    throw DataError(fmt::format("flake sparkle: lifetime {} deg outside (0, 90): too few glint runs to render from",
+                                stats.lifetime_deg));
+  for (const FlakeSlice& s : stats.slices) {
+    if (s.clusters.empty() || s.inverse_cdf.empty() || s.glints == 0) continue;
+    Slice sl;
+    sl.area = s.area();
+    sl.clusters = s.clusters;
+    sl.inverse_cdf = s.inverse_cdf;
+    for (const FlakeCluster& c : s.clusters) sl.mean_colour += c.probability * rgb_of(c.mean);
+    index_[static_cast<std::size_t>(s.theta_i) * static_cast<std::size_t>(num_f_) + static_cast<std::size_t>(s.theta_f)] =
+        static_cast<int>(slices_.size());
+    slices_.push_back(std::move(sl));
   }
 }
 
-brdf::Rgb FlakeSparkle::delta(std::uint64_t cell, const Vec3& wi, const Vec3& wo) const {
-  const auto bins = flake_slice_of(wi, wo, btf_.ior, btf_.num_theta_f, btf_.num_theta_i);
-  const int k = btf_.slice_of(bins[0], bins[1]);
+brdf::Rgb FlakeSparkle::delta(std::uint64_t cell, const Vec3& wi, const Vec3& wo, const brdf::Rgb& model) const {
+  if (slices_.empty()) return brdf::Rgb::Zero();
+  const auto bins = flake_slice_of(wi, wo, ior_, num_f_, num_i_);
+  const int k = index_[static_cast<std::size_t>(bins[1]) * static_cast<std::size_t>(num_f_) + static_cast<std::size_t>(bins[0])];
   if (k < 0) return brdf::Rgb::Zero();
+  const Slice& s = slices_[static_cast<std::size_t>(k)];
+  const double y = mono_ ? model[0] : 0.2126 * model[0] + 0.7152 * model[1] + 0.0722 * model[2];
+  if (!(y > 0.0)) return brdf::Rgb::Zero();
   // The half-vector cell: azimuthal-equidistant coordinates in units of the grid, offset
   // per surface cell.
   const Vec3 h = (wi + wo).normalized();
   const double theta = std::acos(std::clamp(h.z(), -1.0, 1.0)), phi = std::atan2(h.y(), h.x());
   const std::uint64_t c0 = mix(seed_ ^ mix(cell));
-  const double ox = static_cast<double>(c0 >> 11) * 0x1.0p-53, oy = static_cast<double>(mix(c0) >> 11) * 0x1.0p-53;
+  const double ox = uniform_of(c0), oy = uniform_of(mix(c0));
   const auto gx = static_cast<std::int64_t>(std::floor(theta * std::cos(phi) / grid_rad_ + ox));
   const auto gy = static_cast<std::int64_t>(std::floor(theta * std::sin(phi) / grid_rad_ + oy));
-  const std::uint64_t pick = mix(c0 ^ mix(static_cast<std::uint64_t>(gx) * 0x100000001B3ull ^ static_cast<std::uint64_t>(gy)));
-  const auto t = static_cast<std::uint64_t>(btf_.texture_size);
-  const double* v = btf_.texel(k, static_cast<int>(pick % t), static_cast<int>((pick / t) % t));
-  if (v[0] > 0 || v[1] > 0 || v[2] > 0) return brdf::Rgb(v[0], v[1], v[2]);
-  const double* d = dark_.data() + static_cast<std::size_t>(k) * 3;
-  return brdf::Rgb(d[0], d[1], d[2]);
+  std::uint64_t r = mix(c0 ^ mix(static_cast<std::uint64_t>(gx) * 0x100000001B3ull ^ static_cast<std::uint64_t>(gy)));
+  if (uniform_of(r) >= s.area) return brdf::Rgb(-s.area / (1.0 - s.area) * y * s.mean_colour.array());
+  r = mix(r);
+  const std::size_t steps = s.inverse_cdf.size();
+  const FlakeCluster& c = s.clusters[s.inverse_cdf[std::min(steps - 1, static_cast<std::size_t>(uniform_of(r) * steps))]];
+  const Eigen::Vector3d rgb = draw_flake_colour(c, uniform_of(mix(r))) * y;
+  return mono_ ? brdf::Rgb::Constant(rgb[1]) : brdf::Rgb(rgb.array());
 }
 
 FlakeStats session_flakes(const acq::SessionDir& session, const brdf::Brdf& model, const FlakeOptions& options,
@@ -694,6 +739,7 @@ Json flakes_to_json(const FlakeStats& s) {
                       {"glints", sl.glints},
                       {"area", sl.area()},
                       {"intensity_mean", sl.intensity_mean},
+                      {"glint_model_y", sl.glint_model_y},
                       {"intensity_quantiles", q},
                       {"runs", sl.runs},
                       {"lifetime_deg", sl.lifetime_deg},
@@ -784,6 +830,8 @@ FlakeStats flakes_from_json(const Json& j, const std::string& where) {
     sl.glints = json_get<std::uint64_t>(js, "glints", sw);
     if (sl.glints > sl.pixels) throw DataError(sw + ": more glints than pixels");
     sl.intensity_mean = json_get<double>(js, "intensity_mean", sw);
+    sl.glint_model_y = json_get<double>(js, "glint_model_y", sw);
+    if (!(sl.glint_model_y >= 0.0)) throw DataError(sw + ": glint_model_y must be >= 0");
     const auto q = json_get<std::vector<double>>(js, "intensity_quantiles", sw);
     if (q.size() != sl.intensity_quantiles.size())
       throw DataError(fmt::format("{}: intensity_quantiles: expected {} values", sw, sl.intensity_quantiles.size()));

@@ -51,7 +51,7 @@ std::optional<RigPixel> rig_pixel(const brdf::Brdf& brdf, const calib::RigCalibr
   if (sparkle) {
     const auto cell = static_cast<std::uint64_t>(cy) * static_cast<std::uint64_t>(cal.camera().width_px) +
                       static_cast<std::uint64_t>(cx);
-    f = (f + sparkle->delta(cell, wi_l, wo_l)).max(0.0);
+    f = (f + sparkle->delta(cell, wi_l, wo_l, f)).max(0.0);
   }
   return RigPixel{f / per_rate, *sp, wi};
 }

@@ -76,13 +76,14 @@ TEST(FlakeClusters, OctreeKeepsAtMostNClustersThatCoverEveryColour) {
   }
   EXPECT_NEAR(p, 1.0, 1e-12);
   EXPECT_EQ(n, colours.size());
-  // Every colour lies in some cluster's box.
-  for (std::size_t k = 0; k < colours.size(); k += 97) {
-    const colour::Lab& c = colours[k];
-    const bool inside = std::any_of(clusters.begin(), clusters.end(), [&](const FlakeCluster& q) {
-      return c.L >= q.lo.L && c.L <= q.hi.L && c.a >= q.lo.a && c.a <= q.hi.a && c.b >= q.lo.b && c.b <= q.hi.b;
-    });
-    EXPECT_TRUE(inside) << k;
+  // Each cluster's cuboid is centred on its mean with the spread of its colours: the three
+  // groups (sd 1.5 per axis) give boxes no wider than a group (half-width sqrt(3) sd, with
+  // room for a cluster that straddles a few sd), far narrower than the colours' whole box.
+  for (const FlakeCluster& c : clusters) {
+    EXPECT_NEAR(0.5 * (c.lo.L + c.hi.L), c.mean.L, 1e-9);
+    EXPECT_NEAR(0.5 * (c.lo.b + c.hi.b), c.mean.b, 1e-9);
+    EXPECT_LE(c.hi.L - c.lo.L, 2 * std::sqrt(3.0) * 1.5 * 2);
+    EXPECT_LE(c.hi.a - c.lo.a, 2 * std::sqrt(3.0) * 1.5 * 2);
   }
   // The groups' shares: each cluster lies in one group (they are 30+ dE apart).
   std::array<double, 3> share{};
@@ -206,6 +207,7 @@ TEST(FlakeBtf, SlicesFollowTheLayoutRenderersReadAndTexelsTheStatistics) {
     sl.theta_i = i;
     sl.pixels = 10000;
     sl.glints = static_cast<std::uint64_t>(area * 10000);
+    sl.glint_model_y = 1.0;
     if (!colours.empty()) cluster_flake_colours(colours, 50, 500, &sl.clusters, &sl.inverse_cdf);
     s.slices.push_back(sl);
   };
@@ -230,7 +232,9 @@ TEST(FlakeBtf, SlicesFollowTheLayoutRenderersReadAndTexelsTheStatistics) {
   EXPECT_EQ(b.slice_of(1, 3), 4);
   EXPECT_EQ(b.slice_of(0, 4), -1);  // at max_thetaI: zero
   b.check("btf");
-  // Slice 0: texels glint with the slice's area, in the clusters' colours.
+  // Slice 0: texels glint with the slice's area, each in a cluster's chromaticity at a
+  // lightness within its cuboid, times the model's luminance at the glints (here 1).
+  const auto chroma = flake_chromaticities(s.slices[0].clusters);
   int lit = 0;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (int y = 0; y < 64; ++y)
@@ -240,12 +244,15 @@ TEST(FlakeBtf, SlicesFollowTheLayoutRenderersReadAndTexelsTheStatistics) {
       mean += rgb;
       if (rgb.maxCoeff() <= 0) continue;
       ++lit;
-      const colour::Lab lab = colour::srgb_to_lab(rgb * kPi);
-      const bool inside = std::any_of(s.slices[0].clusters.begin(), s.slices[0].clusters.end(), [&](const FlakeCluster& c) {
-        return lab.L >= c.lo.L - 1e-6 && lab.L <= c.hi.L + 1e-6 && lab.a >= c.lo.a - 1e-6 && lab.a <= c.hi.a + 1e-6 &&
-               lab.b >= c.lo.b - 1e-6 && lab.b <= c.hi.b + 1e-6;
-      });
-      EXPECT_TRUE(inside) << x << ", " << y;
+      const colour::Lab lab = colour::srgb_to_lab(rgb);
+      const colour::Lab unit = colour::srgb_to_lab(rgb / colour::srgb_to_xyz(rgb)[1]);
+      bool found = false;
+      for (std::size_t k = 0; k < chroma.size(); ++k) {
+        const FlakeCluster& c = s.slices[0].clusters[k];
+        found = found || (std::abs(unit.a - chroma[k].mean.a) < 1e-6 && std::abs(unit.b - chroma[k].mean.b) < 1e-6 &&
+                          lab.L >= c.lo.L - 1e-6 && lab.L <= c.hi.L + 1e-6);
+      }
+      EXPECT_TRUE(found) << x << ", " << y;
     }
   EXPECT_NEAR(lit / 4096.0, 0.3, 4 * std::sqrt(0.3 * 0.7 / 4096));
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(b.slice_mean[static_cast<std::size_t>(c)], mean[c] / 4096, 1e-12);
@@ -274,7 +281,7 @@ SilverSweep silver_sweep(bool sparkle, double noise_rel) {
   o.width_px = 320;
   o.height_px = 240;
   o.focal_length_mm = 25.0;
-  o.step_deg = 1.0;
+  o.step_deg = 2.0;
   o.start_deg = 20.0;
   o.stop_deg = 160.0;
   o.noise_rel = noise_rel;

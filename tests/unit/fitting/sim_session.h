@@ -1,4 +1,5 @@
 #pragma once
+#include <functional>
 // A measurement on the simulated rig for the fitting tests, without the device chain:
 // the simulator renders the sphere's radiance (RGB) at each table angle, pixel noise is
 // added (relative `noise_rel`, the variance written beside it as an HDR merge does), and
@@ -46,6 +47,9 @@ struct SimSessionOptions {
   double read_noise_white = 0.0;
   double floor_sigmas = 3.0;
   std::uint64_t seed = 1;
+  // What renders a position's radiance (the simulator's own render when empty): e.g. a
+  // model's render_rig, to measure a rendered paint as the simulated one is.
+  std::function<ImageF(const sim::SimWorld&, double angle_deg)> renderer;
 };
 
 struct SimSession {
@@ -127,7 +131,7 @@ inline std::unique_ptr<SimSession> make_sim_session(const sim::SimPaint& paint, 
   const double floor = o.floor_sigmas * read;
   int index = 0;
   for (double a = o.start_deg; a <= o.stop_deg + 1e-9; a += o.step_deg, ++index) {
-    const ImageF radiance = s->world->render_at(a, true, ro);
+    const ImageF radiance = o.renderer ? o.renderer(*s->world, a) : s->world->render_at(a, true, ro);
     ExrImage exr;
     const char* names[3] = {"R", "G", "B"};
     std::vector<ImageF> value(3, ImageF(radiance.width(), radiance.height())), var = value;

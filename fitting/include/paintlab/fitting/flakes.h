@@ -14,8 +14,9 @@
 //  - the sparkle area: glinting pixels / pixels looked at;
 //  - the glint intensity: the excess over the model relative to the model (luminance; the
 //    contrast), its mean and quantiles;
-//  - the glint colours in CIELAB (of pi times the excess BRDF, a radiance factor: the white
-//    diffuser is L* 100): an octree over the slice's colour box reduced to at most
+//  - the glint colours in CIELAB, of the contrast colour (f - m) / Y(m) (its Y is the
+//    contrast: L* 100 at a contrast of 1), which carries over to any geometry of the slice
+//    by multiplying with the model's luminance there: an octree over the slice's colour box reduced to at most
 //    `clusters` leaves (Golla and Klein 2017), each a cuboid (the box of its colours) with
 //    its mean and probability, and an inverse-CDF table of `cdf_steps` cluster indices;
 //  - the glint lifetime: a run of n consecutive light positions in which a pixel glints is
@@ -75,6 +76,7 @@ struct FlakeSlice {
   std::uint64_t glints = 0;
   double area() const { return pixels ? static_cast<double>(glints) / static_cast<double>(pixels) : 0.0; }
   double intensity_mean = 0.0;       // mean contrast (excess / model, luminance) of the glints
+  double glint_model_y = 0.0;        // mean luminance Y (1/sr) of the smooth model at the glints
   std::array<double, 5> intensity_quantiles{};  // 10, 25, 50, 75, 90 %
   std::vector<FlakeCluster> clusters;           // probabilities sum to 1; empty below min_glints
   std::vector<std::uint8_t> inverse_cdf;        // cdf_steps cluster indices
@@ -168,30 +170,51 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
 // and costs to micro-dE. 0 when either is empty.
 double flake_colour_emd(const std::vector<FlakeCluster>& a, const std::vector<FlakeCluster>& b);
 
-// Sparkle drawn from a flake BTF, for renderers (docs/sparkle.md "Rendering with sparkle").
-// A surface cell (an id fixed on the surface: the pixel of a camera that does not move
-// relative to the sample) picks a texel of the slice of its directions (the nearest bins;
-// Unity interpolates the four neighbouring slices bilinearly, which blends glints of
-// unrelated texels). The BRDF to add to the smooth model is the texel's value where it
-// glints and -slice_mean / (1 - g) where it is dark (g the slice's share of glinting
-// texels), so the sparkle averages to zero and the smooth model stays the paint's mean. The
-// cell's texel is drawn again whenever the air half vector moves into another cell of a
-// grid of 2 x lifetime on the hemisphere (azimuthal-equidistant, offset at random per
-// surface cell): chords across such cells average pi lifetime / 2, as a flake's do, so a
-// glint lasts about the measured lifetime. Deterministic: the same cell, directions and
-// seed give the same value.
+// A colour drawn from a cluster (a contrast colour, linear RGB): the cluster mean's
+// chromaticity at a lightness L* = lo.L + u (hi.L - lo.L), u in [0, 1). Drawing a*, b* and L*
+// independently in the cuboid would pair dim glints with the chroma of bright ones: the
+// chromaticity is kept instead (docs/sparkle.md "Rendering with sparkle").
+Eigen::Vector3d draw_flake_colour(const FlakeCluster& cluster, double u);
+
+// The clusters' colours at equal lightness: each mean taken to luminance Y = 1 (L* 100)
+// with its chromaticity kept, the boxes dropped. The colour of the flakes apart from their
+// intensity (compared by itself): what flake_colour_emd compares in docs/sparkle.md.
+std::vector<FlakeCluster> flake_chromaticities(const std::vector<FlakeCluster>& clusters);
+
+// Sparkle drawn from the measured statistics, for renderers (docs/sparkle.md "Rendering
+// with sparkle"). A surface cell (an id fixed on the surface: the pixel of a camera that
+// does not move relative to the sample) draws random numbers from its id and the cell of a
+// grid of 2 x lifetime on the hemisphere of air half vectors (azimuthal-equidistant, offset
+// at random per surface cell) that its half vector is in: it glints when the first is below
+// the sparkle area of the slice of its directions, in a contrast colour drawn from the
+// slice's clusters (inverse CDF, then uniformly in the cluster's CIELAB box) times the
+// smooth model's luminance there; otherwise it is darker by what keeps the slice's average,
+// area E[c] Y / (1 - area). The draws stay while the half vector stays in its grid cell, and
+// the slices' areas and colours change little from one slice to the next: chords across the
+// grid's cells average pi lifetime / 2, as a flake's cone does, so a glint lasts about the
+// measured lifetime. Deterministic: the same cell, directions and seed give the same value.
 class FlakeSparkle {
  public:
-  FlakeSparkle(FlakeBtf btf, double lifetime_deg, std::uint64_t seed = 1);
-  // wi, wo in the shading frame (z the normal).
-  brdf::Rgb delta(std::uint64_t cell, const Vec3& wi, const Vec3& wo) const;
-  const FlakeBtf& btf() const { return btf_; }
+  explicit FlakeSparkle(const FlakeStats& stats, std::uint64_t seed = 1);
+  // wi, wo in the shading frame (z the normal); `model`: the smooth BRDF there. Returns the
+  // BRDF to add (negative where the cell is dark).
+  brdf::Rgb delta(std::uint64_t cell, const Vec3& wi, const Vec3& wo, const brdf::Rgb& model) const;
+  bool empty() const { return slices_.empty(); }
 
  private:
-  FlakeBtf btf_;
+  struct Slice {
+    double area = 0.0;
+    Eigen::Vector3d mean_colour = Eigen::Vector3d::Zero();  // E[c], linear RGB
+    std::vector<FlakeCluster> clusters;
+    std::vector<std::uint8_t> inverse_cdf;
+  };
+  int num_f_ = 1, num_i_ = 1;
+  double ior_ = 1.5;
+  bool mono_ = false;
   double grid_rad_;
   std::uint64_t seed_;
-  std::vector<double> dark_;  // per slice and channel: what a dark texel adds (<= 0)
+  std::vector<int> index_;    // per bin (theta_i-major): into slices_, -1 none
+  std::vector<Slice> slices_;
 };
 
 // A session's flakes (`paintlab flakes SESSION`): its finished positions in sweep order,
