@@ -22,7 +22,9 @@ constexpr const char* kRenderHelp =
     "Render a preview of a paint: a sphere lit by a point light (and an HDR environment map with --env), "
     "tone-mapped to sRGB PNG (linear x exposure, clipped, sRGB curve; automatic exposure puts the 99.5th "
     "percentile at white).\nWith --compare SESSION: the measured HDR image at the light angle nearest --angle, "
-    "the model rendered in the calibrated rig geometry, and their difference, side by side.";
+    "the model rendered in the calibrated rig geometry, and their difference, side by side.\nA paint exported with "
+    "its measured flakes (export --flakes) is drawn with them: glints fixed on the surface, from the measured "
+    "statistics; --compare then also measures both images' sparkle per slice.";
 
 struct RenderArgs {
   std::string paint;
@@ -40,12 +42,14 @@ struct RenderArgs {
   double angle_deg = 60;
   std::string calib;
   int window_px = fit::CompareOptions{}.window_px;
+  bool no_sparkle = false;
 };
 
 int run_compare(const RenderArgs& a) {
   fit::CompareOptions o;
   o.tone.exposure = a.exposure;
   o.window_px = a.window_px;
+  o.sparkle = !a.no_sparkle;
   const fit::ComparisonResult r =
       fit::render_comparison_png(a.paint, a.compare, a.angle_deg, a.out,
                             a.calib.empty() ? std::nullopt : std::optional<fs::path>(a.calib), o,
@@ -54,6 +58,20 @@ int run_compare(const RenderArgs& a) {
   say(fmt::format("compared {} with {} at table angle {:.1f} deg ({})", a.paint, a.compare, r.angle_deg, r.image));
   say(fmt::format("  {} sphere pixels: RMS log ratio model/measured {:.4f}, median ratio {:.4f}", c.pixels_used,
                   c.log_rms, c.median_ratio));
+  if (r.measured_sparkle && r.rendered_sparkle) {
+    const fit::FlakeStats& m = *r.measured_sparkle;
+    const fit::FlakeStats& d = *r.rendered_sparkle;
+    say(fmt::format("  sparkle (glints against the smooth model): measured {:.3f} %, rendered {:.3f} % of {} pixels",
+                    100 * m.area(), 100 * d.area(), m.pixels));
+    say("  slice (theta_F, theta_I)   area measured / rendered   intensity measured / rendered");
+    for (const fit::FlakeSlice& s : m.slices) {
+      if (s.glints < 20) continue;
+      const fit::FlakeSlice* t = d.slice(s.theta_f, s.theta_i);
+      say(fmt::format("  ({:2d}, {:2d})                   {:6.3f} % / {:6.3f} %        {:6.2f} / {:6.2f}", s.theta_f,
+                      s.theta_i, 100 * s.area(), t ? 100 * t->area() : 0.0, s.intensity_mean,
+                      t ? t->intensity_mean : 0.0));
+    }
+  }
   say(fmt::format("wrote {} (measured | model | difference; exposure {:.4g})", a.out, c.exposure));
   return kExitOk;
 }
@@ -77,6 +95,7 @@ int run_render(const RenderArgs& a) {
   o.environment_intensity = a.env_intensity;
   o.environment_samples = a.samples;
   o.tone.exposure = a.exposure;
+  o.sparkle = !a.no_sparkle;
   if (!o.point_light && !o.environment) throw UsageError("--no-point-light needs --env ENV.exr (nothing would light the sphere)");
   const fit::Preview p =
       fit::render_preview_png(a.paint, a.out, o, a.hdr.empty() ? std::nullopt : std::optional<fs::path>(a.hdr));
@@ -113,6 +132,8 @@ void register_render_commands(CLI::App& app) {
   r->add_option("--angle", args->angle_deg, "--compare: table angle, deg (the nearest finished position)")
       ->capture_default_str();
   r->add_option("--calib", args->calib, "--compare: calibration folder (default: the session's rig's)");
+  r->add_flag("--no-sparkle", args->no_sparkle,
+              "Leave out the paint's measured flakes (drawn by default when the paint carries them, docs/sparkle.md)");
   sets_fields(r->add_option("--window", args->window_px,
                             "--compare: half size of the window the difference is averaged over, px (0: pixel by pixel)"),
               {"CompareOptions::window_px"})

@@ -274,7 +274,9 @@ Preview render_preview_png(const fs::path& paint_file, const fs::path& out_png, 
                                 const std::optional<fs::path>& hdr_out) {
   const AxfPaint paint = load_any_paint(paint_file);
   const auto model = brdf::make_brdf(paint.paint_spec());
-  Preview p = render_preview(*model, options);
+  std::optional<FlakeSparkle> sparkle;
+  if (options.sparkle && paint.flake_stats && !paint.flake_stats->empty()) sparkle.emplace(*paint.flake_stats);
+  Preview p = render_preview(*model, options, nullptr, sparkle ? &*sparkle : nullptr);
   write_png8(out_png, p.png);
   if (hdr_out) write_exr_rgb(*hdr_out, p.linear, "preview of " + paint.name + ", linear radiance");
   return p;
@@ -296,7 +298,27 @@ ComparisonResult render_comparison_png(const fs::path& paint_file, const fs::pat
   const calib::RigCalibration cal = acq::session_calibration(session, calib_dir);
   const ExrImage measured = read_exr(session.dir() / best->file);
   ComparisonResult result;
-  result.comparison = render_comparison(*model, cal, measured, best->angle_deg, options);
+  std::optional<FlakeSparkle> sparkle;
+  if (options.sparkle && paint.flake_stats && !paint.flake_stats->empty()) sparkle.emplace(*paint.flake_stats);
+  result.comparison = render_comparison(*model, cal, measured, best->angle_deg, options, sparkle ? &*sparkle : nullptr);
+  if (sparkle) {
+    // The sparkle of both images, measured alike (the glints against the smooth model).
+    ExrImage rendered;
+    rendered.width = measured.width;
+    rendered.height = measured.height;
+    const ImageF full = render_rig(*model, cal, best->angle_deg, &*sparkle);
+    const char* names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; ++c) {
+      ImageF plane(full.width(), full.height());
+      for (int y = 0; y < full.height(); ++y)
+        for (int x = 0; x < full.width(); ++x) plane.at(x, y) = full.at(x, y, c);
+      rendered.add(names[c], std::move(plane));
+    }
+    FlakeOptions fo = paint.flake_stats->options;
+    fo.threads = 0;
+    result.measured_sparkle = extract_flakes({{&measured, best->angle_deg}}, cal, *model, fo);
+    result.rendered_sparkle = extract_flakes({{&rendered, best->angle_deg}}, cal, *model, fo);
+  }
   result.angle_deg = best->angle_deg;
   result.image = best->file;
   const Comparison& c = result.comparison;

@@ -9,7 +9,8 @@
 #include <atomic>
 #include <cmath>
 #include <fmt/format.h>
-#include <map>
+#include <functional>
+#include <memory>
 #include <numeric>
 #include <random>
 
@@ -238,10 +239,17 @@ void cluster_flake_colours(const std::vector<colour::Lab>& colours, int clusters
   }
 }
 
-FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
-                          const brdf::Brdf& model, const FlakeOptions& options, const ExtractionOptions& extraction) {
+namespace {
+
+// extract_flakes over `count` images: image(k) gives the k-th (in sweep order), angle(k) its
+// table angle, name(k) what errors call it.
+FlakeStats extract_flakes_from(std::size_t count, const std::function<std::shared_ptr<const ExrImage>(std::size_t)>& image,
+                               const std::function<double(std::size_t)>& angle,
+                               const std::function<std::string(std::size_t)>& name,
+                               const calib::RigCalibration& calibration, const brdf::Brdf& model,
+                               const FlakeOptions& options, const ExtractionOptions& extraction) {
   options.check();
-  if (frames.empty()) throw DataError("flake extraction: no HDR images");
+  if (count == 0) throw DataError("flake extraction: no HDR images");
   ExtractionOptions ex = extraction;
   ex.cfa_sites = false;
   ex.blur_sigma_px = 0.0;
@@ -273,8 +281,8 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
   auto observe = [&](std::size_t k) {
     auto item = std::make_shared<Item>();
     item->index = k;
-    const HdrFrame& frame = frames[k];
-    const ExrImage hdr = read_exr(frame.path);
+    const std::shared_ptr<const ExrImage> image_k = image(k);
+    const ExrImage& hdr = *image_k;
     item->mono = hdr.find("Y") != nullptr;
     const auto it = hdr.attributes.find("paintlab.colour_space");
     item->colour_space = it == hdr.attributes.end() || it->second.empty() ? colour::kCameraRgb : it->second;
@@ -282,7 +290,7 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
     const Eigen::Vector3d lum = item->mono ? Eigen::Vector3d(1.0, 0.0, 0.0) : Eigen::Vector3d(0.2126, 0.7152, 0.0722);
     std::vector<Obs> all(sampler.pixel_count());
     std::vector<std::uint8_t> present(sampler.pixel_count(), 0);
-    sampler.for_each_value(hdr, frame.angle_deg, [&](const SphereSampler::PixelValue& v) {
+    sampler.for_each_value(hdr, angle(k), [&](const SphereSampler::PixelValue& v) {
       const brdf::Rgb m = model.eval(v.wi, v.wo);
       const Eigen::Vector3d meas(v.rgb[0], v.rgb[1], v.rgb[2]);
       const Eigen::Vector3d var(v.var[0], v.var[1], v.var[2]);
@@ -314,7 +322,7 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
       }
       all[v.pixel] = o;
       present[v.pixel] = 1;
-    }, frame.path.string());
+    }, name(k));
     item->obs.reserve(all.size());
     for (std::size_t i = 0; i < all.size(); ++i)
       if (present[i]) item->obs.push_back(all[i]);
@@ -330,7 +338,7 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
     s.runs += 1;
     s.chord_sum_rad += t.run_len * static_cast<double>(t.last_step);
   };
-  Progress progress("flakes", static_cast<long>(frames.size()), "img");
+  Progress progress("flakes", static_cast<long>(count), "img");
   auto accumulate = [&](const Item& item) {
     const auto t = static_cast<std::int32_t>(item.index);
     if (item.index == 0) {
@@ -375,7 +383,7 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
       }
     }
     out.images += 1;
-    progress.step(fmt::format("{:.1f} deg", frames[item.index].angle_deg));
+    progress.step(fmt::format("{:.1f} deg", angle(item.index)));
   };
   // Images are read and compared in parallel (a few in flight), and tracked in order.
   tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
@@ -385,7 +393,7 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
         static_cast<std::size_t>(2 * arena.max_concurrency()),
         tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
                                             [&](tbb::flow_control& fc) -> std::size_t {
-                                              if (next >= frames.size()) {
+                                              if (next >= count) {
                                                 fc.stop();
                                                 return 0;
                                               }
@@ -454,6 +462,25 @@ FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigC
     out.instrument.push_back(is);
   }
   return out;
+}
+
+}  // namespace
+
+FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
+                          const brdf::Brdf& model, const FlakeOptions& options, const ExtractionOptions& extraction) {
+  return extract_flakes_from(
+      frames.size(), [&](std::size_t k) { return std::make_shared<const ExrImage>(read_exr(frames[k].path)); },
+      [&](std::size_t k) { return frames[k].angle_deg; }, [&](std::size_t k) { return frames[k].path.string(); },
+      calibration, model, options, extraction);
+}
+
+FlakeStats extract_flakes(const std::vector<std::pair<const ExrImage*, double>>& images,
+                          const calib::RigCalibration& calibration, const brdf::Brdf& model, const FlakeOptions& options,
+                          const ExtractionOptions& extraction) {
+  return extract_flakes_from(
+      images.size(), [&](std::size_t k) { return std::shared_ptr<const ExrImage>(images[k].first, [](const ExrImage*) {}); },
+      [&](std::size_t k) { return images[k].second; }, [](std::size_t k) { return fmt::format("image {}", k); },
+      calibration, model, options, extraction);
 }
 
 int FlakeBtf::slice_of(int f, int i) const {

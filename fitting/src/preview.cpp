@@ -235,7 +235,8 @@ bool preview_geometry(const PreviewOptions& o, int x, int y, Vec3* normal, Vec3*
   return true;
 }
 
-Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& o, const EnvironmentMap* env_in) {
+Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& o, const EnvironmentMap* env_in,
+                       const FlakeSparkle* sparkle) {
   o.check();
   std::optional<EnvironmentMap> loaded;
   const EnvironmentMap* env = env_in;
@@ -262,7 +263,16 @@ Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& o, const En
         Rgb v = Rgb::Zero();
         if (o.point_light) {
           const double c = n.dot(wi);
-          if (c > 0) v += eval_world(brdf, n, wi, wo) * c * (o.light_distance / r) * (o.light_distance / r);
+          if (c > 0) {
+            Rgb f = eval_world(brdf, n, wi, wo);
+            if (sparkle) {
+              const Mat3 frame = frame_from_normal(n);
+              f = (f + sparkle->delta(static_cast<std::uint64_t>(y) * S + static_cast<std::uint64_t>(x),
+                                      frame.transpose() * wi, frame.transpose() * wo, f))
+                      .max(0.0);
+            }
+            v += f * c * (o.light_distance / r) * (o.light_distance / r);
+          }
         }
         if (env) {
           PixelRng rng(o.seed, x, y);

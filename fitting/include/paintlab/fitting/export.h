@@ -86,6 +86,7 @@ LibraryEntry library_add(const std::filesystem::path& dir, const std::filesystem
 
 // `paintlab render PAINT --out PNG [--hdr EXR]`: the preview sphere (render_preview) of a
 // paint file, written as tone-mapped PNG (and linear EXR when `hdr_out` is given).
+// Draws the paint's measured flakes when it has them and options.sparkle is set.
 Preview render_preview_png(const std::filesystem::path& paint_file, const std::filesystem::path& out_png,
                            const PreviewOptions& options = {},
                            const std::optional<std::filesystem::path>& hdr_out = std::nullopt);
@@ -94,10 +95,14 @@ Preview render_preview_png(const std::filesystem::path& paint_file, const std::f
 // of the finished position nearest `angle_deg` | the paint rendered in the calibrated rig
 // geometry | their difference (render_comparison), as PNG (and measured | model as linear
 // EXR when `hdr_out` is given).
+// With a paint that carries measured flakes (and options.sparkle), the model draws them and
+// both images' sparkle is measured per slice (the glint test of flakes.h against the smooth
+// model).
 struct ComparisonResult {
   Comparison comparison;
   double angle_deg = 0;  // table angle of the position compared
   std::string image;     // its HDR file, relative to the session
+  std::optional<FlakeStats> measured_sparkle, rendered_sparkle;
 };
 ComparisonResult render_comparison_png(const std::filesystem::path& paint_file,
                                        const std::filesystem::path& session_dir, double angle_deg,

@@ -163,6 +163,11 @@ void cluster_flake_colours(const std::vector<colour::Lab>& colours, int clusters
 FlakeStats extract_flakes(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
                           const brdf::Brdf& model, const FlakeOptions& options = {},
                           const ExtractionOptions& extraction = {});
+// The same over images in memory (sweep order) with their table angles: a rendered image
+// measured as a session's is (`paintlab render --compare`).
+FlakeStats extract_flakes(const std::vector<std::pair<const ExrImage*, double>>& images,
+                          const calib::RigCalibration& calibration, const brdf::Brdf& model,
+                          const FlakeOptions& options = {}, const ExtractionOptions& extraction = {});
 
 // The earth mover's distance between two slices' colour distributions (their clusters'
 // means with their probabilities; CIELAB Euclidean distance as the ground cost, dE76): an

@@ -83,6 +83,7 @@ struct PreviewOptions {
   int environment_samples = 64;     // per strategy and pixel, >= 1
   std::uint64_t seed = 1;
   ToneMapping tone{};
+  bool sparkle = true;              // draw the paint's measured flakes (point light) when it has them
   void check() const;               // DataError naming the first violated rule
 };
 
@@ -100,7 +101,10 @@ struct Preview {
 };
 
 // Renders the preview scene. `env`, when given, overrides options.environment.
-Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& options, const EnvironmentMap* env = nullptr);
+// With `sparkle`, the point light's part draws the measured flakes (flakes.h; each
+// preview pixel a surface cell, so the pattern stays put when the light moves).
+Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& options, const EnvironmentMap* env = nullptr,
+                       const FlakeSparkle* sparkle = nullptr);
 
 // The preview scene's geometry at pixel (x, y): the sphere point's normal (world frame)
 // and the light direction; false off the sphere. For tests and for documentation.
@@ -130,6 +134,7 @@ struct CompareOptions {
   double signal_floor_rel = 0.01; // measured value (window mean) >= this x the exposure's white level
   double diff_range_log2 = 1.0;   // |d| that saturates the difference colour
   int window_px = 4;              // half size of the comparison window, 0..50 (0: pixel by pixel)
+  bool sparkle = true;            // render_comparison_png: draw the paint's measured flakes
   ToneMapping tone;
   void check() const;
 };
