@@ -8,6 +8,7 @@
 #include <random>
 
 #include "paintlab/brdf/paint.h"
+#include "paintlab/core/atomic_file.h"
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/axf_file.h"
 #include "paintlab/fitting/flakes.h"
@@ -268,6 +269,54 @@ TEST(FlakeBtf, SlicesFollowTheLayoutRenderersReadAndTexelsTheStatistics) {
   EXPECT_EQ(e.slice_lut, (std::vector<int>{0}));
 }
 
+TEST(FlakeSparkleDraws, KeepTheAverageStayPutAndGlintWithTheArea) {
+  FlakeStats s;
+  s.options.num_theta_f = s.options.num_theta_i = 6;
+  s.lifetime_deg = 5.0;
+  FlakeSlice sl;
+  sl.theta_f = 0;
+  sl.theta_i = 0;
+  sl.pixels = 1000;
+  sl.glints = 200;  // area 0.2
+  std::vector<colour::Lab> colours;
+  for (int k = 0; k < 400; ++k) colours.push_back({k % 2 ? 150.0 : 120.0, k % 2 ? 8.0 : -6.0, 4.0});
+  cluster_flake_colours(colours, 50, 500, &sl.clusters, &sl.inverse_cdf);
+  s.slices = {sl};
+  s.glints = 200;
+  s.pixels = 1000;
+  const FlakeSparkle sparkle(s);
+  ASSERT_FALSE(sparkle.empty());
+  const brdf::Rgb model(0.2, 0.3, 0.4);
+  const Vec3 wi = Vec3(0.05, 0.02, 1).normalized(), wo = Vec3(-0.04, 0.0, 1).normalized();
+  int lit = 0;
+  brdf::Rgb sum = brdf::Rgb::Zero();
+  const int n = 200000;
+  for (int cell = 0; cell < n; ++cell) {
+    const brdf::Rgb d = sparkle.delta(static_cast<std::uint64_t>(cell), wi, wo, model);
+    lit += d.maxCoeff() > 0 ? 1 : 0;
+    sum += d;
+    ASSERT_EQ(d.matrix(), sparkle.delta(static_cast<std::uint64_t>(cell), wi, wo, model).matrix());  // deterministic
+  }
+  EXPECT_NEAR(lit / double(n), 0.2, 4 * std::sqrt(0.2 * 0.8 / n));
+  // The sparkle averages to nothing: the smooth model stays the paint's mean (to the draws' noise).
+  const double y = 0.2126 * 0.2 + 0.7152 * 0.3 + 0.0722 * 0.4;
+  EXPECT_LT(std::abs((sum / n).matrix().dot(Eigen::Vector3d(0.2126, 0.7152, 0.0722))), 0.03 * y);
+  // A glint stays put while the light moves a little (the half vector within its grid cell)
+  // and changes over many lifetimes.
+  int same = 0, cells = 0;
+  const Vec3 wi2 = Vec3(0.06, 0.02, 1).normalized();  // h moves by about 0.3 deg
+  for (int cell = 0; cell < 2000; ++cell) {
+    const brdf::Rgb a = sparkle.delta(static_cast<std::uint64_t>(cell), wi, wo, model);
+    if (a.maxCoeff() <= 0) continue;
+    ++cells;
+    same += sparkle.delta(static_cast<std::uint64_t>(cell), wi2, wo, model).matrix() == a.matrix() ? 1 : 0;
+  }
+  EXPECT_GT(same, 0.9 * cells);
+  // Outside the measured slices nothing is drawn.
+  const Vec3 far = Vec3(0.9, 0, 0.44).normalized();
+  EXPECT_EQ(sparkle.delta(7, far, wo, model).matrix(), Eigen::Vector3d::Zero());
+}
+
 // A 320 x 240 sweep every 3 deg of the silver metallic paint (its flakes coloured), and
 // its statistics against the true smooth BRDF.
 struct SilverSweep {
@@ -365,6 +414,18 @@ TEST(FlakesCli, WritesFlakesJsonAndRefusesBadInput) {
   ASSERT_TRUE(exported.flake_stats && exported.flake_btf);
   EXPECT_GT(exported.flake_btf->slices(), 0);
   EXPECT_NEAR(static_cast<double>(exported.flake_stats->glints), static_cast<double>(s.glints), 0.2 * static_cast<double>(s.glints));
+  // Rendered with its flakes (and without), and compared with the session at 90 deg.
+  const fs::path png = sim->dir / "p.png", plain = sim->dir / "plain.png";
+  r = test::run_paintlab("render " + axf.string() + " --size 128 --out " + png.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = test::run_paintlab("render " + axf.string() + " --size 128 --no-sparkle --out " + plain.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(read_file(png), read_file(plain));
+  r = test::run_paintlab("render " + axf.string() + " --out " + (sim->dir / "c.png").string() + " --compare " +
+                         session.string() + calib + " --angle 90");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("sparkle (glints against the smooth model): measured"));
+  EXPECT_THAT(r.out, HasSubstr("area measured / rendered"));
   r = test::run_paintlab("axf show " + axf.string());
   EXPECT_THAT(r.out, HasSubstr("measured flakes: sparkle area"));
   EXPECT_THAT(r.out, HasSubstr("flake BTF:"));
