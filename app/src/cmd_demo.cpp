@@ -165,6 +165,7 @@ int run_demo(const DemoArgs& a) {
   const fs::path compare = dir / "compare.png";
   const fs::path library = dir / "library";
   const fs::path report = dir / "report.html";
+  const fs::path flakes = dir / "flakes.json";
   const int lobes = a.lobes > 0 ? a.lobes
                                 : std::clamp(static_cast<int>(paint.spec.cook_torrance()
                                                                   ? paint.spec.cook_torrance()->lobes.size()
@@ -197,7 +198,12 @@ int run_demo(const DemoArgs& a) {
   if (fit_rc != 0 && !(fit_rc == kExitFailed && fs::exists(fit_file)))
     throw JobError(fmt::format("demo: the fit failed (exit {}); the files so far are in {}", fit_rc, dir.string()));
   if (fit_rc != 0) say("demo: the fit did not converge; going on with its last parameters (fit.json says so)");
-  step({"export", fit_file.string(), "--axf", axf.string()}, t_export, "the AxF-like export");
+  // The flakes: their statistics against the fit, into the AxF-like file with it (a paint
+  // without flakes gets an empty model and no flake groups).
+  step({"flakes", session.string(), "--fit", fit_file.string(), "--out", flakes.string()}, t_export,
+       "the flake statistics");
+  step({"export", fit_file.string(), "--axf", axf.string(), "--flakes", flakes.string()}, t_export,
+       "the AxF-like export");
   step({"export", session.string(), "--merl", merl.string()}, t_export, "the MERL export");
   step({"axf", "validate", axf.string()}, t_export, "validating the AxF-like file");
   step({"library", "add", "--dir", library.string(), axf.string(), "--replace"}, t_export, "adding to the library");
@@ -235,7 +241,19 @@ int run_demo(const DemoArgs& a) {
                           {"export", t_export},          {"total", total}};
   summary["files"] = {{"axf", axf.string()},         {"merl", merl.string()},       {"fit", fit_file.string()},
                       {"preview", preview.string()}, {"compare", compare.string()}, {"session", session.string()},
-                      {"library", library.string()}, {"rig", R},                   {"report", report.string()}};
+                      {"library", library.string()}, {"rig", R},                   {"report", report.string()},
+                      {"flakes", flakes.string()}};
+  {
+    // The measured sparkle (docs/sparkle.md): the whole sweep's figures and the instrument-style ones.
+    const Json fl = read_json_file(flakes);
+    Json sp = {{"area", fl.at("area")},
+               {"glints", fl.at("glints")},
+               {"lifetime_deg", fl.at("lifetime_deg")},
+               {"empty", fl.at("empty")},
+               {"instrument", fl.at("instrument")}};
+    if (paint.spec.flakes) sp["truth_lifetime_deg"] = paint.spec.flakes->lifetime_deg;
+    summary["sparkle"] = sp;
+  }
   summary["quick"] = a.quick;
   if (!colour.is_null()) summary["colour"] = colour;
   write_json_file(dir / "summary.json", summary);

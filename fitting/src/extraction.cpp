@@ -89,6 +89,50 @@ bool near_invalid_pixel(const ImageF* valid, std::size_t i, int width, int heigh
   return false;
 }
 
+// A sphere pixel's measurement and directions, when it passes the rules every extracted
+// pixel passes (extraction.h): valid in the merge, a finite value and variance, lit and seen
+// off the horizon, no invalid pixel within valid_margin_px. Otherwise the rule it failed is
+// counted in `st` and the result is false.
+struct Screened {
+  float rgb[3], var[3];
+  Vec3 normal, wi, wo;
+  double irradiance;
+};
+template <class ValueAt, class VarianceAt>
+bool screen_pixel(std::size_t i, const Eigen::Vector3f& point, const Eigen::Vector3f& normal,
+                  const Eigen::Vector3f& to_camera, const ImageF* valid, ValueAt value_at, VarianceAt variance_at,
+                  bool with_variance, const calib::LightModel& light, const Vec3& led, double table_angle_deg,
+                  const ExtractionOptions& o, int width, int height, ExtractionStats& st, Screened* out) {
+  if (valid && !(valid->data()[i] > 0.5f)) {
+    ++st.invalid;
+    return false;
+  }
+  bool finite = true;
+  for (int c = 0; c < 3; ++c) {
+    out->rgb[c] = value_at(c, i);
+    out->var[c] = with_variance ? variance_at(c, i) : 0.0f;
+    finite = finite && std::isfinite(out->rgb[c]) && std::isfinite(out->var[c]);
+  }
+  if (!finite) {
+    ++st.non_finite;
+    return false;
+  }
+  const Vec3 p = point.cast<double>();
+  out->normal = normal.cast<double>();
+  out->wo = to_camera.cast<double>();
+  out->wi = (led - p).normalized();
+  out->irradiance = light.irradiance(table_angle_deg, p, out->normal);
+  if (out->normal.dot(out->wi) < o.min_cos || out->normal.dot(out->wo) < o.min_cos || !(out->irradiance > 0.0)) {
+    ++st.grazing;
+    return false;
+  }
+  if (near_invalid_pixel(valid, i, width, height, o.valid_margin_px)) {
+    ++st.near_invalid;
+    return false;
+  }
+  return true;
+}
+
 // The colour (0 R, 1 G, 2 B) of each site of the top-left 2x2 block, row by row, of a
 // GenICam Bayer arrangement as paintlab.cfa names it ("RG": R G / G B); empty otherwise.
 std::optional<std::array<int, 4>> cfa_block(const std::string& name) {
@@ -227,41 +271,28 @@ ExtractionStats SphereSampler::for_each_value(const ExrImage& hdr, double table_
   const calib::LightModel light = cal_->light_model();
   const calib::ScaleCalibration& scale = *cal_->scale();
   const Vec3 led = light.led_position_cam(table_angle_deg);
-  auto near_invalid = [&](std::size_t i) { return near_invalid_pixel(ch.valid, i, width_, height_, options_.valid_margin_px); };
   tbb::combinable<ExtractionStats> counts;
+  auto value_at = [&](int c, std::size_t i) { return ch.value[static_cast<std::size_t>(c)]->data()[i]; };
+  auto variance_at = [&](int c, std::size_t i) { return ch.variance[static_cast<std::size_t>(c)]->data()[i]; };
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pixels_.size(), 4096), [&](const auto& r) {
     ExtractionStats& st = counts.local();
     for (std::size_t k = r.begin(); k != r.end(); ++k) {
       const Pixel& p = pixels_[k];
       ++st.sphere_pixels;
-      const std::size_t i = p.index;
-      if (ch.valid && !(ch.valid->data()[i] > 0.5f)) {
-        ++st.invalid;
+      Screened sc;
+      if (!screen_pixel(p.index, p.point, p.normal, p.to_camera, ch.valid, value_at, variance_at, ch.with_variance,
+                        light, led, table_angle_deg, options_, width_, height_, st, &sc))
         continue;
-      }
       PixelValue v;
       v.pixel = static_cast<std::uint32_t>(k);
-      bool finite = true;
       for (std::size_t c = 0; c < 3; ++c) {
-        v.rgb[c] = ch.value[c]->data()[i];
-        v.var[c] = ch.with_variance ? ch.variance[c]->data()[i] : 0.0;
-        finite = finite && std::isfinite(v.rgb[c]) && std::isfinite(v.var[c]);
+        v.rgb[c] = sc.rgb[c];
+        v.var[c] = sc.var[c];
       }
-      if (!finite) {
-        ++st.non_finite;
-        continue;
-      }
-      const Vec3 point = p.point.cast<double>(), n = p.normal.cast<double>(), wo = p.to_camera.cast<double>();
-      const Vec3 wi = (led - point).normalized();
-      const double e = light.irradiance(table_angle_deg, point, n);
-      if (n.dot(wi) < options_.min_cos || n.dot(wo) < options_.min_cos || !(e > 0.0)) {
-        ++st.grazing;
-        continue;
-      }
-      if (near_invalid(i)) {
-        ++st.near_invalid;
-        continue;
-      }
+      const Vec3& n = sc.normal;
+      const Vec3& wi = sc.wi;
+      const Vec3& wo = sc.wo;
+      const double e = sc.irradiance;
       const double to_brdf = scale.brdf(1.0, e);
       for (std::size_t c = 0; c < 3; ++c) {
         v.rgb[c] *= to_brdf;
@@ -433,7 +464,6 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
   // Censoring at the noise floor and spill from saturated pixels: next to pixels the merge
   // marked invalid, a valid pixel is there because its noise lifted it over the floor (a
   // bright bias at the terminator), or it holds light spilled from a saturated neighbour.
-  auto near_invalid = [&](std::size_t i) { return near_invalid_pixel(valid, i, width_, height_, options_.valid_margin_px); };
   std::vector<Value> values;
   values.reserve(pixels_.size());
   const bool local = options_.variance == VarianceModel::Local;
@@ -444,34 +474,18 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
     const Pixel& p = pixels_[k];
     ++st.sphere_pixels;
     const std::size_t i = p.index;
-    if (valid && !(valid->data()[i] > 0.5f)) {
-      ++st.invalid;
+    Screened sc;
+    if (!screen_pixel(i, p.point, p.normal, p.to_camera, valid, value_at, variance_at, with_variance, light, led,
+                      table_angle_deg, options_, width_, height_, st, &sc))
       continue;
-    }
     Value v;
     v.pixel = static_cast<std::uint32_t>(k);
-    bool finite = true;
-    for (int c = 0; c < 3; ++c) {
-      v.rgb[c] = value_at(c, i);
-      v.var[c] = with_variance ? variance_at(c, i) : 0.0f;
-      finite = finite && std::isfinite(v.rgb[c]) && std::isfinite(v.var[c]);
-    }
-    if (!finite) {
-      ++st.non_finite;
-      continue;
-    }
-    const Vec3 point = p.point.cast<double>(), n = p.normal.cast<double>(), wo = p.to_camera.cast<double>();
-    const Vec3 wi = (led - point).normalized();
-    const double cos_i = n.dot(wi), cos_o = n.dot(wo);
-    const double e = light.irradiance(table_angle_deg, point, n);
-    if (cos_i < options_.min_cos || cos_o < options_.min_cos || !(e > 0.0)) {
-      ++st.grazing;
-      continue;
-    }
-    if (near_invalid(i)) {
-      ++st.near_invalid;
-      continue;
-    }
+    std::copy(sc.rgb, sc.rgb + 3, v.rgb);
+    std::copy(sc.var, sc.var + 3, v.var);
+    const Vec3& n = sc.normal;
+    const Vec3& wi = sc.wi;
+    const Vec3& wo = sc.wo;
+    const double e = sc.irradiance;
     if (blur_k > 0.0) {
       const Deblur d = deblur(i, v.rgb, v.var);
       if (d == Deblur::Rejected) {

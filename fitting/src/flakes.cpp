@@ -721,19 +721,11 @@ FlakeStats session_flakes(const std::filesystem::path& session_dir, const Sessio
   if (!options.fit_file.empty()) {
     model = brdf::make_brdf(load_any_paint(options.fit_file).paint_spec());
   } else {
-    spdlog::info("fitting a {}-lobe Cook-Torrance model to {} (give --fit FIT.json to use an existing fit)",
-                 options.lobes, session_dir.string());
     SessionBinOptions bin;
     bin.extraction = options.extraction;
     bin.calib_dir = options.calib_dir;
-    const FitInput in = load_fit_input(session_dir, bin);
-    SharedFitOptions shared;
-    shared.lobes = options.lobes;
-    const FitOutcome fit = fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance,
-                                     FitRequest::with(FitModel::CookTorrance, paint_name_from(in.sample), shared),
-                                     in.input);
-    if (!fit.converged) spdlog::warn("the fit of {} did not converge ({})", session_dir.string(), fit.termination);
-    model = brdf::make_brdf(axf_from_fit_json(fit.fit, session_dir.string()).paint_spec());
+    model = brdf::make_brdf(fit_cook_torrance_now(load_fit_input(session_dir, bin), options.lobes,
+                                                  session_dir.string()).paint_spec());
   }
   return session_flakes(session, *model, options.flakes, options.extraction, options.calib_dir);
 }

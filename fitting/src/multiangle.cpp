@@ -435,15 +435,7 @@ MultiAngleColour measured_paint_colour(const fs::path& data, const std::vector<G
     out.paint = m.paint;
     out.model = m.model;
   } else {
-    spdlog::info("fitting a {}-lobe Cook-Torrance model to {} (give --fit FIT.json to use an existing fit)",
-                 options.lobes, data.string());
-    SharedFitOptions shared;
-    shared.lobes = options.lobes;
-    const FitOutcome fit = fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance,
-                                     FitRequest::with(FitModel::CookTorrance, paint_name_from(in.sample), shared),
-                                     in.input);
-    if (!fit.converged) spdlog::warn("the fit of {} did not converge ({})", data.string(), fit.termination);
-    AxfPaint p = axf_from_fit_json(fit.fit, data.string());
+    const AxfPaint p = fit_cook_torrance_now(in, options.lobes, data.string());
     out.paint = p.name;
     out.model = colour_at(*brdf::make_brdf(p.paint_spec()), geometries);
   }

@@ -1,5 +1,7 @@
 #include "paintlab/fitting/session_binning.h"
 
+#include "paintlab/fitting/pipeline.h"
+
 #include <fmt/format.h>
 
 #include <optional>
@@ -218,6 +220,16 @@ FitInput load_fit_input(const fs::path& path, const SessionBinOptions& options) 
         path.string(), measured, cov.filename().string()));
   }
   return in;
+}
+
+AxfPaint fit_cook_torrance_now(const FitInput& in, int lobes, const std::string& what) {
+  spdlog::info("fitting a {}-lobe Cook-Torrance model to {} (give --fit FIT.json to use an existing fit)", lobes, what);
+  SharedFitOptions shared;
+  shared.lobes = lobes;
+  const FitOutcome fit = fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance,
+                                   FitRequest::with(FitModel::CookTorrance, paint_name_from(in.sample), shared), in.input);
+  if (!fit.converged) spdlog::warn("the fit of {} did not converge ({})", what, fit.termination);
+  return axf_from_fit_json(fit.fit, what);
 }
 
 }  // namespace paintlab::fit

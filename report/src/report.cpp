@@ -76,9 +76,13 @@ Section provenance_section(const ReportInput& in) {
   const auto add = [&](const fs::path& p, const std::string& label) {
     std::string version = "—", date = "—";
     if (p.extension() == ".json" && fs::exists(p)) {
-      const Json j = read_json_file(p);
-      version = text_of(at(j, {"provenance", "software_version"}), text_of(at(j, {"software_version"})));
-      date = text_of(at(j, {"provenance", "date"}), text_of(at(j, {"date"}), text_of(at(j, {"created_utc"}))));
+      try {
+        const Json j = read_json_file(p);
+        version = text_of(at(j, {"provenance", "software_version"}), text_of(at(j, {"software_version"})));
+        date = text_of(at(j, {"provenance", "date"}), text_of(at(j, {"date"}), text_of(at(j, {"created_utc"}))));
+      } catch (const Error&) {
+        version = "unreadable";  // its own section says what is wrong with it
+      }
     }
     t.rows.push_back({esc(label), "<code>" + sha_or_dash(p) + "</code>", esc(version), esc(date)});
   };
@@ -90,6 +94,7 @@ Section provenance_section(const ReportInput& in) {
     add(in.session / "journal.jsonl", "session/journal.jsonl");
   }
   if (!in.fit.empty()) add(in.fit, in.fit.filename().string());
+  if (!in.flakes.empty()) add(in.flakes, in.flakes.filename().string());
   if (!in.summary.empty()) add(in.summary, "summary.json");
   if (!in.rig.empty()) add(in.rig, "rig file " + in.rig.filename().string());
   std::string& s = sec.html;
@@ -168,6 +173,7 @@ ReportInput classify_input(const fs::path& input) {
       if (fs::exists(p / "calib")) in.calibration = p / "calib";
       if (fs::exists(p / "session")) in.session = p / "session";
       in.fit = p / "fit.json";
+      if (fs::exists(p / "flakes.json")) in.flakes = p / "flakes.json";
       if (fs::exists(p / "rig.toml")) in.rig = p / "rig.toml";
       for (const char* img : {"preview.png", "compare.png"})
         if (fs::exists(p / img)) in.images.push_back(p / img);
@@ -205,6 +211,7 @@ ReportInput classify_input(const fs::path& input) {
     if (j.is_object() && j.contains("model") && (j.contains("residual") || j.contains("lobes") || j.contains("kd"))) {
       in.kind = InputKind::Fit;
       in.fit = p;
+      if (fs::exists(p.parent_path() / "flakes.json")) in.flakes = p.parent_path() / "flakes.json";
       for (const char* img : {"preview.png", "compare.png"})
         if (fs::exists(p.parent_path() / img)) in.images.push_back(p.parent_path() / img);
       return in;
@@ -250,6 +257,7 @@ Report make_report(const ReportInput& in, const ReportOptions& options) {
   if (in.kind == InputKind::Fit || in.kind == InputKind::Demo) {
     sections.push_back(fit_section(in.fit, in.images, so));
     sections.push_back(colour_section(in.fit, summary.is_object() ? &summary : nullptr, so));
+    if (!in.flakes.empty()) sections.push_back(sparkle_section(in.flakes, so));
   }
   ReportInput used = in;
   used.rig = rig_file;

@@ -65,5 +65,7 @@ Section fit_section(const std::filesystem::path& fit_json, const std::vector<std
 // Colour: a demo's truth | fit | measured table (summary.json "colour"), else the fit's
 // model colour per geometry. `summary` may be null.
 Section colour_section(const std::filesystem::path& fit_json, const Json* summary, const SectionOptions& o);
+// Sparkle: the flakes.json of `paintlab flakes` (a demo's, or beside a fit.json).
+Section sparkle_section(const std::filesystem::path& flakes_json, const SectionOptions& o);
 
 }  // namespace paintlab::report

@@ -57,10 +57,16 @@ TEST(DemoCli, QuickDemoWritesTheContractSummaryAndAFitCloseToTheTruth) {
     ASSERT_TRUE(s["calibration"].contains(k)) << k;
   for (const char* k : {"calibrate", "measure", "fit", "export", "total"})
     ASSERT_TRUE(s["timings_s"].contains(k) && s["timings_s"][k].get<double>() > 0) << k;
-  for (const char* k : {"axf", "merl", "fit", "preview", "report"}) {
+  for (const char* k : {"axf", "merl", "fit", "preview", "report", "flakes"}) {
     ASSERT_TRUE(s["files"].contains(k)) << k;
     EXPECT_TRUE(fs::exists(s["files"][k].get<std::string>())) << k;
   }
+  // The silver metallic sparkles: its flakes measured and exported with the paint (docs/sparkle.md).
+  ASSERT_TRUE(s.contains("sparkle"));
+  EXPECT_FALSE(s["sparkle"]["empty"].get<bool>());
+  EXPECT_GT(s["sparkle"]["area"].get<double>(), 0.005);
+  EXPECT_GT(s["sparkle"]["lifetime_deg"].get<double>(), 0.0);
+  EXPECT_EQ(s["sparkle"]["instrument"].size(), 3u);
   // The demo's report in a real browser, with no network (docs/reports.md).
   report_browser::check_demo_report(out);
 

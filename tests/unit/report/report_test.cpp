@@ -9,6 +9,7 @@
 #include "paintlab/core/error.h"
 #include "paintlab/core/json.h"
 #include "paintlab/report/plot.h"
+#include "paintlab/fitting/flakes.h"
 #include "paintlab/report/report.h"
 #include "test_util.h"
 
@@ -168,6 +169,43 @@ TEST(Report, AFitShowsItsParametersResidualsAndCurvesOnAPageThatLoadsNothing) {
   // Its colour at the five geometries (the fit is linear sRGB).
   EXPECT_THAT(html, HasSubstr("id=\"colour-L-45as45\""));
   EXPECT_THAT(element_text(html, "status-verdict"), HasSubstr("nothing missing"));
+}
+
+TEST(Report, FlakesBesideAFitGiveASparkleSectionWithTheInstrumentNumbers) {
+  test::TempDir dir;
+  write_json_file(dir / "fit.json", fit_json(true));
+  fit::FlakeStats f;
+  f.colour_space = colour::kLinearSrgb;
+  f.images = 10;
+  f.runs = 12;
+  f.lifetime_deg = 5.25;
+  f.step_deg = 0.5;
+  fit::FlakeSlice a;
+  a.theta_f = 0;
+  a.theta_i = 2;
+  a.pixels = 2000;
+  a.glints = 300;
+  a.intensity_mean = 3.5;
+  a.intensity_quantiles = {1, 2, 3, 4, 5};
+  a.clusters = {{{100, -4, 2}, {110, 0, 6}, {105, -2, 4}, 0.6, 180}, {{120, 5, -9}, {130, 9, -3}, {125, 7, -6}, 0.4, 120}};
+  a.inverse_cdf = {0, 0, 0, 1, 1};
+  f.slices = {a};
+  f.pixels = 2000;
+  f.glints = 300;
+  f.instrument = {{15, 400, 60, 15.0, 2.5}, {45, 300, 3, 1.0, 1.2}, {75, 0, 0, 0, 0}};
+  write_json_file(dir / "flakes.json", fit::flakes_to_json(f));
+  const std::string html = report_of(dir / "fit.json");
+  expect_self_contained(html);
+  EXPECT_THAT(element_text(html, "sparkle-area"), HasSubstr("15 %"));
+  EXPECT_THAT(element_text(html, "sparkle-lifetime"), HasSubstr("5.25"));
+  EXPECT_THAT(element_text(html, "sparkle-area-15"), HasSubstr("15 %"));
+  EXPECT_THAT(html, HasSubstr("not measured"));  // 75 deg: no observation, not 0
+  EXPECT_THAT(html, HasSubstr("class=\"swatch\""));
+  // A damaged flakes.json is named, the rest of the page stands.
+  write_file_atomic(dir / "flakes.json", "{\"format\": \"paintlab-flakes\", ");
+  const report::Report r = report::make_report(report::classify_input(dir / "fit.json"));
+  EXPECT_THAT(r.html, HasSubstr("flakes.json"));
+  EXPECT_FALSE(r.missing.empty());
 }
 
 TEST(Report, AFitThatDidNotConvergeIsShownAsFailing) {

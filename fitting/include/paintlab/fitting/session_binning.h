@@ -80,6 +80,11 @@ struct FitInput {
 };
 FitInput load_fit_input(const std::filesystem::path& path, const SessionBinOptions& options);
 
+// A Cook-Torrance fit of `lobes` lobes made now of `in` (what `paintlab colour` and
+// `paintlab flakes` do when given no fit): logged as such, with a warning when it does not
+// converge; `what` names the data. The paint's AxF-like form (its name the sample's).
+AxfPaint fit_cook_torrance_now(const FitInput& in, int lobes, const std::string& what);
+
 // The options a fit.json's "input" records (margin_px; blur_sigma_px and valid_margin_px:
 // 0 when absent, as fits made before them were binned; variance, estimator), on top of
 // `base`: a table binned again from the same session is the one that was fitted. Fields

@@ -23,6 +23,7 @@ struct ReportInput {
   std::filesystem::path session;      // session folder, or empty
   std::filesystem::path fit;          // fit.json, or empty
   std::filesystem::path summary;      // demo summary.json, or empty
+  std::filesystem::path flakes;       // flakes.json (a demo's, or beside a fit.json), or empty
   // The rig file, for the nominal geometry the calibration is compared with: a demo's
   // rig.toml, the file a session names, or rig.toml beside a calibration folder whose
   // `calibration` is that folder; empty when none is found (ReportOptions::rig overrides).
