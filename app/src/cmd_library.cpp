@@ -56,15 +56,21 @@ int run_list(const LibraryArgs& a) {
   }
   std::size_t w = 4;
   for (const auto& e : entries) w = std::max(w, e.name.size());
-  say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}  {}", "NAME", w, "DATE", "MODEL", "LOG_RMS", "BINS",
-                  "L* a* b* AT 45as45"));
+  say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}  {:<18}  {}", "NAME", w, "DATE", "MODEL", "LOG_RMS", "BINS",
+                  "L* a* b* AT 45as45", "SPARKLE AREA % AT 15/45/75"));
   for (const auto& e : entries) {
     std::string lab = "-";
     for (const auto& [g, v] : e.colour)
       if (g == "45as45") lab = fmt::format("{:.1f} {:.1f} {:.1f}", v.L, v.a, v.b);
-    say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}  {}", e.name, w, e.date, e.model,
+    std::string sparkle = "-";
+    if (e.sparkle) {
+      sparkle.clear();
+      for (const fit::LibrarySparkle::At& at : e.sparkle->at)
+        sparkle += (sparkle.empty() ? "" : " / ") + (at.area_percent ? fmt::format("{:.2f}", *at.area_percent) : "n/m");
+    }
+    say(fmt::format("{:<{}}  {:<20}  {:<13}  {:>8}  {:>8}  {:<18}  {}", e.name, w, e.date, e.model,
                     e.log_rms ? fmt::format("{:.4f}", *e.log_rms) : "-",
-                    e.bins_used ? std::to_string(*e.bins_used) : "-", lab));
+                    e.bins_used ? std::to_string(*e.bins_used) : "-", lab, sparkle));
   }
   say(fmt::format("{} paint{} in {}", entries.size(), entries.size() == 1 ? "" : "s", lib.dir().string()));
   warn_findings(lib);
@@ -79,6 +85,16 @@ int run_show(const LibraryArgs& a) {
   if (e.colour.empty()) say("  colour: none stored (a paint in camera RGB, or added by an older paintlab)");
   for (const auto& [g, v] : e.colour)
     say(fmt::format("  {:<8} L* {:6.2f}  a* {:6.2f}  b* {:6.2f}  (D65, 2 deg)", g, v.L, v.a, v.b));
+  if (!e.sparkle) {
+    say("  sparkle: none stored (no measured flakes in the file, or added by an older paintlab)");
+  } else {
+    say(fmt::format("  sparkle: {} glints, {:.2f} % of the pixel samples, lifetime {:.2f} deg", e.sparkle->glints,
+                    e.sparkle->area_percent, e.sparkle->lifetime_deg));
+    for (const fit::LibrarySparkle::At& at : e.sparkle->at)
+      say(fmt::format("  sparkle at {:>2.0f} deg light, viewed along the normal: area {}, intensity {}",
+                      at.illumination_deg, at.area_percent ? fmt::format("{:.2f} %", *at.area_percent) : "not measured",
+                      at.intensity ? fmt::format("{:.2f}", *at.intensity) : "no glint"));
+  }
   return kExitOk;
 }
 

@@ -107,7 +107,63 @@ Json LibraryEntry::to_json() const {
     for (const auto& [geometry, lab] : colour) values.push_back({{"geometry", geometry}, {"L", lab.L}, {"a", lab.a}, {"b", lab.b}});
     j["colour"] = {{"geometries", kDefaultGeometrySet}, {"illuminant", "D65"}, {"observer_deg", 2}, {"values", values}};
   }
+  if (!sparkle) {
+    j["sparkle"] = nullptr;
+  } else {
+    Json at = Json::array();
+    for (const LibrarySparkle::At& a : sparkle->at)
+      at.push_back({{"illumination_deg", a.illumination_deg},
+                    {"viewing_deg", 0.0},
+                    {"sparkle_area_percent", a.area_percent ? Json(*a.area_percent) : Json(nullptr)},
+                    {"sparkle_intensity", a.intensity ? Json(*a.intensity) : Json(nullptr)}});
+    j["sparkle"] = {{"area_percent", sparkle->area_percent},
+                    {"lifetime_deg", sparkle->lifetime_deg},
+                    {"glints", sparkle->glints},
+                    {"instrument", at}};
+  }
   return j;
+}
+
+namespace {
+
+std::optional<double> optional_number(const Json& j, const char* key, const std::string& where) {
+  if (!j.contains(key) || j[key].is_null()) return std::nullopt;
+  return json_get<double>(j, key, where);
+}
+
+LibrarySparkle sparkle_from_json(const Json& s, const std::string& where) {
+  if (!s.is_object()) throw DataError(where + ": expected an object or null");
+  LibrarySparkle out;
+  out.area_percent = json_get<double>(s, "area_percent", where);
+  out.lifetime_deg = json_get<double>(s, "lifetime_deg", where);
+  out.glints = json_get<std::uint64_t>(s, "glints", where);
+  if (!s.contains("instrument") || !s["instrument"].is_array())
+    throw DataError(where + ": key 'instrument': expected an array");
+  const Json& at = s["instrument"];
+  for (std::size_t i = 0; i < at.size(); ++i) {
+    const std::string aw = where + fmt::format(".instrument[{}]", i);
+    if (!at[i].is_object()) throw DataError(aw + ": expected an object");
+    out.at.push_back({json_get<double>(at[i], "illumination_deg", aw),
+                      optional_number(at[i], "sparkle_area_percent", aw),
+                      optional_number(at[i], "sparkle_intensity", aw)});
+  }
+  return out;
+}
+
+}  // namespace
+
+// The library's summary of a file's measured flakes.
+std::optional<LibrarySparkle> library_sparkle(const AxfPaint& paint) {
+  if (!paint.flake_stats) return std::nullopt;
+  const FlakeStats& f = *paint.flake_stats;
+  LibrarySparkle s;
+  s.area_percent = 100.0 * f.area();
+  s.lifetime_deg = f.lifetime_deg;
+  s.glints = f.glints;
+  for (const InstrumentSparkle& is : f.instrument)
+    s.at.push_back({is.illumination_deg, is.measured() ? std::optional<double>(is.area_percent) : std::nullopt,
+                    is.glints ? std::optional<double>(is.intensity) : std::nullopt});
+  return s;
 }
 
 LibraryEntry LibraryEntry::from_json(const Json& j, const std::string& where) {
@@ -141,6 +197,7 @@ LibraryEntry LibraryEntry::from_json(const Json& j, const std::string& where) {
                           colour::Lab{json_get<double>(v, "L", vw), json_get<double>(v, "a", vw), json_get<double>(v, "b", vw)}});
     }
   }
+  if (j.contains("sparkle") && !j["sparkle"].is_null()) e.sparkle = sparkle_from_json(j["sparkle"], where + ".sparkle");
   if (e.file.empty() || e.file.find('/') != std::string::npos || e.file.front() == '.')
     throw DataError(where + ": key 'file': '" + e.file + "' is not a file name inside the library folder");
   return e;
@@ -305,6 +362,7 @@ LibraryEntry PaintLibrary::commit_added(Index& idx, std::vector<LibraryEntry>::i
     for (const AngleColour& c : colour_at(*model, geometry_set(kDefaultGeometrySet)))
       entry.colour.push_back({c.geometry.name, c.lab});
   }
+  entry.sparkle = library_sparkle(written);
 
   std::optional<std::string> old_file;
   if (old != idx.paints.end()) {

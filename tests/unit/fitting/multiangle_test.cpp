@@ -518,7 +518,7 @@ TEST(LibraryMatch, AVersionOneIndexStillReadsAndMatchesFromTheFiles) {
   test::TempDir dir;
   const fs::path lib_dir = colour_library(dir.path());
   Json j = read_json_file(lib_dir / kLibraryIndexFile);
-  EXPECT_EQ(j["format_version"], 2);
+  EXPECT_EQ(j["format_version"], 3);
   j["format_version"] = 1;
   for (Json& p : j["paints"]) p.erase("colour");
   write_json_file(lib_dir / kLibraryIndexFile, j);

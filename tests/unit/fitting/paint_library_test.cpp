@@ -339,6 +339,77 @@ TEST(PaintLibrary, ALockHeldTooLongIsAnErrorNotAHang) {
   EXPECT_EQ(lib.list().size(), 1u);
 }
 
+// Issue 16, item 6: the instrument-style sparkle of a paint with measured flakes is in its
+// library entry (index version 3); "not measured" stays null, never 0; older indexes still read.
+TEST(PaintLibrary, MeasuredSparkleIsStoredWithTheEntry) {
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp / "lib", true);
+  AxfPaint sparkly = make_paint("sparkly");
+  FlakeStats fs;
+  fs.colour_space = colour::kLinearSrgb;
+  fs.images = 10;
+  fs.pixels = 4000;
+  fs.glints = 120;
+  fs.lifetime_deg = 4.5;
+  FlakeSlice slice;  // the file keeps the totals as the sum of its slices
+  slice.theta_f = 1;
+  slice.theta_i = 2;
+  slice.pixels = 4000;
+  slice.glints = 120;
+  slice.intensity_mean = 2.5;
+  slice.clusters = {{{60, -5, 3}, {70, 5, 9}, {65, 0, 6}, 1.0, 120}};
+  slice.inverse_cdf = {0, 0};
+  fs.slices = {slice};
+  // 15 deg: 12 glints in 80 samples; 45 deg: measured, no glint; 75 deg: not measured.
+  fs.instrument = {{15, 80, 12, 15.0, 2.75}, {45, 200, 0, 0.0, 0.0}, {75, 0, 0, 0.0, 0.0}};
+  sparkly.flake_stats = fs;
+  const LibraryEntry e = lib.add(sparkly, false);
+  lib.add(make_paint("plain"), false);
+
+  ASSERT_TRUE(e.sparkle);
+  EXPECT_EQ(e.sparkle->glints, 120u);
+  EXPECT_DOUBLE_EQ(e.sparkle->area_percent, 3.0);
+  EXPECT_DOUBLE_EQ(e.sparkle->lifetime_deg, 4.5);
+  ASSERT_EQ(e.sparkle->at.size(), 3u);
+  EXPECT_EQ(e.sparkle->at[0], (LibrarySparkle::At{15, 15.0, 2.75}));
+  EXPECT_EQ(e.sparkle->at[1], (LibrarySparkle::At{45, 0.0, std::nullopt}));
+  EXPECT_EQ(e.sparkle->at[2], (LibrarySparkle::At{75, std::nullopt, std::nullopt}));
+  EXPECT_FALSE(lib.find("plain").sparkle);
+  EXPECT_EQ(PaintLibrary::open(tmp / "lib", false).find("sparkly"), e);  // through index.json
+
+  Json j = read_json_file(tmp / "lib/index.json");
+  EXPECT_EQ(j["format_version"], 3);
+  const Json& js = j["paints"][1]["sparkle"];
+  EXPECT_EQ(j["paints"][1]["name"], "sparkly");
+  EXPECT_TRUE(js["instrument"][2]["sparkle_area_percent"].is_null());
+  EXPECT_TRUE(js["instrument"][1]["sparkle_intensity"].is_null());
+  EXPECT_EQ(js["instrument"][1]["sparkle_area_percent"], 0.0);
+  EXPECT_TRUE(j["paints"][0]["sparkle"].is_null());
+
+  auto r = test::run_paintlab("library show --dir " + (tmp / "lib").string() + " sparkly");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("sparkle: 120 glints, 3.00 % of the pixel samples, lifetime 4.50 deg"));
+  EXPECT_THAT(r.out, HasSubstr("sparkle at 15 deg light, viewed along the normal: area 15.00 %, intensity 2.75"));
+  EXPECT_THAT(r.out, HasSubstr("sparkle at 45 deg light, viewed along the normal: area 0.00 %, intensity no glint"));
+  EXPECT_THAT(r.out, HasSubstr("sparkle at 75 deg light, viewed along the normal: area not measured"));
+  r = test::run_paintlab("library list --dir " + (tmp / "lib").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("SPARKLE AREA % AT 15/45/75"));
+  EXPECT_THAT(r.out, HasSubstr("15.00 / 0.00 / n/m"));
+
+  // A version-2 index (no sparkle key) still reads: no sparkle until the paint is added again.
+  j["format_version"] = 2;
+  for (Json& p : j["paints"]) p.erase("sparkle");
+  write_json_file(tmp / "lib/index.json", j);
+  EXPECT_FALSE(PaintLibrary::open(tmp / "lib", false).find("sparkly").sparkle);
+  // A damaged sparkle entry is named.
+  j["format_version"] = 3;
+  j["paints"][1]["sparkle"] = {{"area_percent", 3.0}, {"lifetime_deg", 4.5}, {"glints", 120}};
+  write_json_file(tmp / "lib/index.json", j);
+  EXPECT_THAT(test::error_message<DataError>([&] { PaintLibrary::open(tmp / "lib", false); }),
+              HasSubstr("paints[1].sparkle: key 'instrument': expected an array"));
+}
+
 TEST(PaintLibraryCli, AddListShowRemoveExport) {
   test::TempDir tmp;
   const std::string dir = " --dir " + (tmp / "lib").string();

@@ -22,9 +22,28 @@ namespace paintlab::fit {
 inline constexpr const char* kLibraryIndexFile = "index.json";
 inline constexpr const char* kLibraryFormat = "paintlab-library";
 // Version 2 stores each paint's CIELAB at the five-angle geometries (LibraryEntry::colour);
-// version-1 indexes still read (their entries have no colour until the paint is added again;
-// `library match` computes it from the file meanwhile).
-inline constexpr int kLibraryFormatVersion = 2;
+// version 3 the instrument-style sparkle of a paint with measured flakes (LibraryEntry::sparkle).
+// Version-1 and -2 indexes still read (their entries have no colour / sparkle until the paint is
+// added again; `library match` computes the colour from the file meanwhile).
+inline constexpr int kLibraryFormatVersion = 3;
+
+// The sparkle numbers a technician compares with an instrument (docs/sparkle.md "Instrument-
+// style numbers"): at each illumination angle (15, 45, 75 deg, viewed along the normal) the
+// sparkle area in percent and the sparkle intensity (mean glint contrast); nullopt where the
+// session did not measure that geometry (area) or saw no glint there (intensity).
+struct LibrarySparkle {
+  struct At {
+    double illumination_deg = 0.0;
+    std::optional<double> area_percent;
+    std::optional<double> intensity;
+    bool operator==(const At&) const = default;
+  };
+  double area_percent = 0.0;   // glints among all compared pixel samples
+  double lifetime_deg = 0.0;   // the glints' angular lifetime
+  std::uint64_t glints = 0;
+  std::vector<At> at;
+  bool operator==(const LibrarySparkle&) const = default;
+};
 
 struct LibraryEntry {
   std::string name;
@@ -40,11 +59,17 @@ struct LibraryEntry {
   // name in the set's order; empty for a paint in camera RGB (no colour calibration) or an
   // entry of a version-1 index.
   std::vector<std::pair<std::string, colour::Lab>> colour;
+  // Of a paint file with measured flakes (/flake_stats); nullopt for a paint without them or
+  // an entry of an older index. A paint measured without flakes has glints 0 and area 0.
+  std::optional<LibrarySparkle> sparkle;
 
   Json to_json() const;
   static LibraryEntry from_json(const Json& j, const std::string& where);
   bool operator==(const LibraryEntry&) const = default;
 };
+
+// The library's summary of a paint file's measured flakes (nullopt: the file has none).
+std::optional<LibrarySparkle> library_sparkle(const AxfPaint& paint);
 
 class PaintLibrary {
  public:
