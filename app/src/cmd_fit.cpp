@@ -26,6 +26,8 @@
 #include "paintlab/fitting/coverage.h"
 #include "paintlab/fitting/export.h"
 #include "paintlab/fitting/extraction.h"
+#include "paintlab/fitting/flakes.h"
+#include "paintlab/fitting/axf_file.h"
 #include "paintlab/fitting/hole_fill.h"
 #include "paintlab/fitting/pipeline.h"
 #include "paintlab/fitting/session_binning.h"
@@ -57,6 +59,7 @@ struct FitArgs {
   int max_iterations = 100;
   std::uint32_t min_samples = 1;
   std::string residuals = "log";
+  std::string flakes;  // the flakes.json to measure against the fit (a session only)
   ExtractArgs extract;
 };
 
@@ -72,7 +75,14 @@ int run_fit(const FitArgs& a) {
   req.check();
   const fs::path input(a.input);
   if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
-  fit::OutputGuard().input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out}).check();
+  fit::OutputGuard guard;
+  guard.input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out});
+  if (!a.flakes.empty()) {
+    if (!fs::is_directory(input))
+      throw DataError(fmt::format("--flakes: {} is a table; flakes are measured from a session's images", a.input));
+    guard.output({"--flakes", a.flakes});
+  }
+  guard.check();
   fit::SessionBinOptions bin = bin_options(a.extract);
   if (bin.sites == fit::SiteFit::On && !fs::is_directory(input))
     throw DataError(fmt::format("--cfa-sites on: {} is a table; only a session's images show which pixel measured "
@@ -94,6 +104,17 @@ int run_fit(const FitArgs& a) {
                : fit::fit_table(in.table, in.noise_variance.empty() ? nullptr : &in.noise_variance, req, in.input);
   write_json_file(a.out, outcome.fit);
   say(outcome.report);
+  if (!a.flakes.empty()) {
+    // The flakes against the fit just made: its smooth model is the flakes' average.
+    spdlog::info("measuring the flakes against the {} fit", fit::to_string(req.model));
+    const auto model = brdf::make_brdf(fit::axf_from_fit_json(outcome.fit, a.out).paint_spec());
+    fit::FlakeOptions fo;
+    fo.threads = a.extract.threads;
+    const fit::FlakeStats stats =
+        fit::session_flakes(acq::SessionDir::open(input), *model, fo, bin.extraction, bin.calib_dir);
+    write_json_file(a.flakes, fit::flakes_to_json(stats));
+    say(fit::describe_flakes(stats) + "wrote " + a.flakes);
+  }
   if (!outcome.converged) {
     // Written anyway: the last parameters are often close, and fit.json says converged false.
     spdlog::warn("the {} fit did not converge: {}; {} is written with \"converged\": false (exit 1)",
@@ -177,6 +198,9 @@ void register_fit_commands(CLI::App& app) {
                   "Cook-Torrance residuals: log, or linear (weights from the neighbouring bins and the sparkle-aware "
                   "sample spread: unbiased for bin means under flake sparkle; see docs/fitting.md)")
       ->capture_default_str();
+  fit->add_option("--flakes", args->flakes,
+                  "A session: also measure its flakes against the fit and write this flakes.json (as `paintlab "
+                  "flakes SESSION --fit fit.json` with the default options; docs/sparkle.md)");
   add_extract_options(fit, args->extract, true);
   add_cfa_sites_option(fit, args->extract);
 

@@ -70,6 +70,27 @@ TEST(FlakesCli, WritesFlakesJsonAndRefusesBadInput) {
   // The fitted model is close to the paint: about as many glints.
   EXPECT_NEAR(static_cast<double>(s2.glints), static_cast<double>(s.glints), 0.2 * static_cast<double>(s.glints));
 
+  // `paintlab fit --flakes`: the flakes against the fit it made, as `flakes --fit fit.json`.
+  const fs::path fit_json = sim->dir / "fit.json", out3 = sim->dir / "flakes-of-fit.json";
+  r = test::run_paintlab("fit " + session.string() + calib + " --out " + fit_json.string() + " --flakes " + out3.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("instrument-style sparkle"));
+  EXPECT_THAT(r.out, HasSubstr("wrote " + out3.string()));
+  const fs::path out4 = sim->dir / "flakes-against-fit.json";
+  r = test::run_paintlab("flakes " + session.string() + calib + " --fit " + fit_json.string() + " --out " + out4.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const FlakeStats s3 = flakes_from_json(read_json_file(out3), out3.string());
+  EXPECT_EQ(s3, flakes_from_json(read_json_file(out4), out4.string()));
+  EXPECT_NEAR(static_cast<double>(s3.glints), static_cast<double>(s.glints), 0.2 * static_cast<double>(s.glints));
+  // --flakes never over --out or an input, and only for a session.
+  const fs::path bad_fit = sim->dir / "bad-fit.json";
+  r = test::run_paintlab("fit " + session.string() + calib + " --out " + bad_fit.string() + " --flakes " + bad_fit.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--flakes"));
+  r = test::run_paintlab("fit " + fit_json.string() + " --out " + bad_fit.string() + " --flakes " + out4.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_FALSE(fs::exists(bad_fit));
+
   // Bad input: nothing written.
   const fs::path bad = sim->dir / "bad.json";
   r = test::run_paintlab("flakes " + session.string() + calib + " --slices 16 --out " + bad.string());
