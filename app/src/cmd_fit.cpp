@@ -57,7 +57,7 @@ struct FitArgs {
   std::string name;
   std::uint64_t seed = 1;
   int max_iterations = 100;
-  std::uint32_t min_samples = 1;
+  std::uint32_t min_samples = fit::SharedFitOptions{}.min_samples;
   std::string residuals = "log";
   std::string flakes;  // the flakes.json to measure against the fit (a session only)
   ExtractArgs extract;
@@ -190,8 +190,9 @@ void register_fit_commands(CLI::App& app) {
               {"CtFitOptions::max_iterations", "AxfFitOptions::max_iterations"})
       ->capture_default_str();
   sets_fields(fit->add_option("--min-samples", args->min_samples,
-                  "Pool neighbouring phi_d bins into fit points of at least this many samples (sessions with flake "
-                  "sparkle: 16 or more)"),
+                  "Pool neighbouring phi_d bins of a session into fit points of at least this many samples (flake "
+                  "sparkle: a bin of a few samples is decided by a glint or its absence; 1 = a point per bin; MERL "
+                  "tables, which hold no counts, are never pooled)"),
               {"FitDataOptions::min_samples"})
       ->capture_default_str();
   fit->add_option("--residuals", args->residuals,

@@ -20,6 +20,7 @@
 #include "paintlab/fitting/coverage.h"
 #include "paintlab/fitting/ct_fit.h"
 #include "paintlab/fitting/extraction.h"
+#include "paintlab/fitting/pipeline.h"
 #include "paintlab/sim/paint.h"
 #include "sim_session.h"
 #include "test_util.h"
@@ -92,7 +93,7 @@ void expect_within_targets(const brdf::CookTorranceParams& truth, const CookTorr
   EXPECT_LT(f.residual.total.log_rms, 1.5 * f.residual.total.noise_floor);
 }
 
-CookTorranceFit fit(const BinnedTable& t, int lobes, std::uint32_t min_samples = 1,
+CookTorranceFit fit(const BinnedTable& t, int lobes, std::uint32_t min_samples = SharedFitOptions{}.min_samples,
                     const brdf::CookTorranceParams* warm = nullptr, double function_tolerance = 1e-8) {
   CtFitOptions o;
   o.lobes = lobes;
@@ -180,7 +181,7 @@ TEST(SimPipeline, SilverMetallicWithSparkle) {
   const brdf::CookTorranceParams truth = *paint("silver-metallic").cook_torrance();
   Sweep w;
   w.sparkle = true;
-  const CookTorranceFit f = fit(binned("silver-metallic", w), 3, 16);
+  const CookTorranceFit f = fit(binned("silver-metallic", w), 3);
   report("silver-metallic, sparkle", f);
   EXPECT_TRUE(f.summary.converged) << f.summary.termination;
   ASSERT_EQ(f.params.lobes.size(), 3u);
