@@ -4,13 +4,18 @@
 // Both renders go through the same pixel noise and the same flake extraction. Per slice
 // with at least 2000 glints: the sparkle area and the mean glint intensity within 10 %, and
 // the flake colours (chromaticity at equal lightness) within an earth mover's distance of
-// 5 dE (issue 16 asks for 2; measured 1.7-4.1 dE, against 0.6-3.6 dE between two of the
-// simulator's own sweeps); the glint lifetime within 1 deg. The figures are printed;
-// docs/sparkle.md quotes them.
+// 5 dE and of max(2 dE, 1.5 x the distance between two panels of the paint); the glint
+// lifetime within 1 deg. Issue 16 asks for 2 dE: two panels of the paint (flake fields of
+// their own) differ by 2.9-5.1 dE per slice on this 320 x 240 rig (a slice holds a few hundred
+// flakes), the model by 1.7-3.4 dE; at 640 x 480 (PAINTLAB_SPARKLE_SCALE=2) the model is within
+// 2 dE in the slices of more than 10 000 glints. The figures are printed; docs/sparkle.md
+// quotes them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include "paintlab/brdf/paint.h"
 #include "paintlab/fitting/flakes.h"
@@ -24,9 +29,13 @@ namespace {
 
 test_support::SimSessionOptions sweep(double start_deg) {
   test_support::SimSessionOptions o;
-  o.width_px = 320;
-  o.height_px = 240;
-  o.focal_length_mm = 25.0;
+  // PAINTLAB_SPARKLE_SCALE=2: a 640 x 480 rig (four times the flakes per slice), as docs/sparkle.md
+  // was measured; about 2 min instead of 25 s.
+  const char* scale = std::getenv("PAINTLAB_SPARKLE_SCALE");
+  const double k = scale ? std::clamp(std::atof(scale), 0.5, 4.0) : 1.0;
+  o.width_px = static_cast<int>(320 * k);
+  o.height_px = static_cast<int>(240 * k);
+  o.focal_length_mm = 25.0 * k;
   o.start_deg = start_deg;
   o.stop_deg = start_deg + 140.0;
   o.step_deg = 1.0;
@@ -54,6 +63,12 @@ TEST(SparkleAcceptance, ExportedFlakesRenderTheMeasuredSparkleAtUnmeasuredAngles
   ro.renderer = [&](const sim::SimWorld&, double angle) { return render_rig(*model, cal, angle, &sparkle); };
   const auto rendered = test_support::make_sim_session(sim::sim_paint(spec), ro);
   const FlakeStats a = measure(*truth, *model), b = measure(*rendered, *model);
+  // Another panel of the same paint (its own flake field): how far two measurements of the paint
+  // differ when nothing but the flakes' draw differs. A slice holds a few hundred flakes, each
+  // seen in about lifetime / step positions; their colours are a sample of the paint's.
+  test_support::SimSessionOptions po = sweep(20.5);
+  po.seed = 3;
+  const FlakeStats panel = measure(*test_support::make_sim_session(sim::sim_paint(spec), po), *model);
   std::printf("simulator: %srendered: %s", describe_flakes(a).c_str(), describe_flakes(b).c_str());
 
   int compared = 0;
@@ -67,6 +82,10 @@ TEST(SparkleAcceptance, ExportedFlakesRenderTheMeasuredSparkleAtUnmeasuredAngles
     if (m0)
       std::printf("  the simulator's two sweeps: area %.4f / %.4f, colour EMD %.2f dE\n", m0->area(), s.area(),
                   flake_colour_emd(flake_chromaticities(s.clusters), flake_chromaticities(m0->clusters)));
+    const FlakeSlice* p = panel.slice(s.theta_f, s.theta_i);
+    const double floor = p ? flake_colour_emd(flake_chromaticities(s.clusters), flake_chromaticities(p->clusters)) : NAN;
+    std::printf("  another panel of the paint: %llu / %llu glints, colour EMD %.2f dE\n",
+                static_cast<unsigned long long>(s.glints), p ? static_cast<unsigned long long>(p->glints) : 0ull, floor);
     std::printf("slice (%d, %d): area %.4f / %.4f (%+.1f %%), intensity %.3f / %.3f (%+.1f %%), colour EMD %.2f dE (%.1f with lightness), "
                 "lifetime %.2f / %.2f deg\n",
                 s.theta_f, s.theta_i, s.area(), r->area(), 100 * (r->area() / s.area() - 1), s.intensity_mean,
@@ -76,6 +95,11 @@ TEST(SparkleAcceptance, ExportedFlakesRenderTheMeasuredSparkleAtUnmeasuredAngles
     EXPECT_NEAR(r->area(), s.area(), 0.10 * s.area()) << s.theta_f << ", " << s.theta_i;
     EXPECT_NEAR(r->intensity_mean, s.intensity_mean, 0.10 * s.intensity_mean) << s.theta_f << ", " << s.theta_i;
     EXPECT_LE(emd, 5.0) << s.theta_f << ", " << s.theta_i;
+    // The model's colours are as close to the simulator's as another panel's are (with room
+    // for the panel's own scatter), or within the issue's 2 dE.
+    if (std::isfinite(floor)) {
+      EXPECT_LE(emd, std::max(2.0, 1.5 * floor)) << s.theta_f << ", " << s.theta_i;
+    }
     ++compared;
   }
   EXPECT_GE(compared, 4);
