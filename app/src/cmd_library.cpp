@@ -1,4 +1,5 @@
-// paintlab library {add,list,show,remove,export} --dir DIR ...   (docs/library.md)
+// paintlab library {add,list,show,remove,export,match,interpolate} --dir DIR ...   (docs/library.md,
+// docs/design.md)
 #include <filesystem>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -7,6 +8,7 @@
 #include "paintlab/fitting/output_guard.h"
 #include "paintlab/fitting/export.h"
 #include "paintlab/core/error.h"
+#include "paintlab/fitting/interpolate.h"
 #include "paintlab/fitting/multiangle.h"
 #include "paintlab/fitting/paint_library.h"
 
@@ -28,6 +30,10 @@ struct LibraryArgs {
   std::string paint;
   std::string geometries = fit::kDefaultGeometrySet;
   double max_de = 1.0;
+  std::vector<std::string> parents;
+  std::vector<double> weights;
+  bool free_weights = false;
+  std::string out;
 };
 
 void warn_findings(const fit::PaintLibrary& lib) {
@@ -161,6 +167,38 @@ int run_export(const LibraryArgs& a) {
   return kExitOk;
 }
 
+int run_interpolate(const LibraryArgs& a) {
+  fit::OutputGuard guard;
+  guard.output({"--out", a.out});
+  const fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
+  std::vector<fit::AxfPaint> parents;
+  for (const std::string& p : a.parents) {
+    bool in_library = false;
+    for (const fit::LibraryEntry& e : lib.list()) in_library = in_library || e.name == p;
+    if (in_library) {
+      parents.push_back(lib.load(p));  // its checksum checked
+    } else if (fs::exists(p)) {
+      guard.input("PAINT", p);
+      parents.push_back(fit::load_any_paint(p));
+    } else {
+      throw UsageError(fmt::format("PAINT '{}': neither a paint in library {} nor a file", p, a.dir));
+    }
+  }
+  guard.check();
+  fit::InterpolateOptions o;
+  o.name = a.name;
+  o.free_weights = a.free_weights;
+  const fit::RealisedPaint r = fit::interpolate_paints(parents, a.weights, o);
+  for (const std::string& n : r.notes) spdlog::warn("{}", n);
+  for (const std::string& c : r.clamped)
+    spdlog::warn("extrapolated outside what a paint holds, clamped: {}", c);
+  fit::write_axf_file(a.out, r.paint);
+  say(fit::describe_axf(fit::read_axf_file(a.out)));
+  say(fmt::format("wrote {} ({}){}", a.out, r.paint.provenance.source,
+                  r.clamped.empty() ? "" : fmt::format("; {} values clamped", r.clamped.size())));
+  return kExitOk;
+}
+
 }  // namespace
 
 void register_library_commands(CLI::App& app) {
@@ -192,6 +230,25 @@ void register_library_commands(CLI::App& app) {
       "name in the library): the colour match a lab runs every day (docs/colour.md)",
       run_match);
   match->add_option("PAINT", m->paint, "the paint to match")->required();
+  auto [interp, ip] = command(
+      "interpolate",
+      "A new paint between (or beyond) paints of the library, as Golla and Klein interpolate metallic car paints: "
+      "the model's parameters linearly, the colour table in CIELAB, each flake slice's colour clusters matched by "
+      "optimal transport (docs/design.md). Exit 0 written, 2 bad input (nothing written).",
+      run_interpolate);
+  interp->add_option("PAINTS", ip->parents, "2 to 5 paints: names in the library (or AxF-like / fit / paint files)")
+      ->required()
+      ->expected(2, 5);
+  interp->add_option("--weights", ip->weights,
+                     "One weight per paint, comma-separated, summing to 1 (0.75,0.25; outside [0, 1] extrapolates: "
+                     "--weights=-0.25,1.25)")
+      ->required()
+      ->delimiter(',');
+  interp->add_flag("--free-weights", ip->free_weights, "Allow weights that do not sum to 1");
+  interp->add_option("--name", ip->name, "Name of the new paint (default: the parents' names and weights)")
+      ->check(utf8_text());
+  interp->add_option("--out", ip->out, "The AxF-like file to write (outside the library; `library add` adds it)")
+      ->required();
   match->add_option("--geometries", m->geometries, "Geometry set (colour's names, or a .toml file)")
       ->capture_default_str();
   match->add_option("--max-de", m->max_de, "List paints whose worst dE00 is at most this")

@@ -245,14 +245,7 @@ void cluster_flake_colours(const std::vector<colour::Lab>& colours, int clusters
   std::stable_sort(out->begin(), out->end(),
                    [](const FlakeCluster& a, const FlakeCluster& b) { return a.probability > b.probability; });
   // Inverse CDF: entry k is the cluster where the cumulative probability passes (k + 0.5) / steps.
-  inverse_cdf->resize(static_cast<std::size_t>(cdf_steps));
-  double cum = 0.0;
-  std::size_t c = 0;
-  for (int k = 0; k < cdf_steps; ++k) {
-    const double u = (k + 0.5) / cdf_steps;
-    while (c + 1 < out->size() && cum + (*out)[c].probability < u) cum += (*out)[c++].probability;
-    (*inverse_cdf)[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(c);
-  }
+  *inverse_cdf = flake_inverse_cdf(*out, cdf_steps);
 }
 
 namespace {
@@ -580,28 +573,38 @@ FlakeBtf make_flake_btf(const FlakeStats& stats, int texture_size, std::uint64_t
   return b;
 }
 
-double flake_colour_emd(const std::vector<FlakeCluster>& a, const std::vector<FlakeCluster>& b) {
-  if (a.empty() || b.empty()) return 0.0;
-  constexpr long long kMass = 1'000'000'000;
-  constexpr double kCostScale = 1e6;
+namespace {
+double de76(const colour::Lab& x, const colour::Lab& y) {
+  return std::sqrt((x.L - y.L) * (x.L - y.L) + (x.a - y.a) * (x.a - y.a) + (x.b - y.b) * (x.b - y.b));
+}
+}  // namespace
+
+FlakeTransport flake_transport(const std::vector<FlakeCluster>& a, const std::vector<FlakeCluster>& b) {
+  FlakeTransport out;
+  if (a.empty() || b.empty()) return out;
   // Integer masses with the same total on both sides (the rounding goes to the largest).
-  auto masses = [&](const std::vector<FlakeCluster>& c) {
+  auto masses = [&](const std::vector<FlakeCluster>& c, const char* side) {
     double total = 0.0;
-    for (const FlakeCluster& x : c) total += x.probability;
+    for (const FlakeCluster& x : c) {
+      if (!(x.probability >= 0.0)) throw DataError(fmt::format("flake colour transport: a cluster of {} has probability {}", side, x.probability));
+      total += x.probability;
+    }
+    if (!(total > 0.0)) throw DataError(fmt::format("flake colour transport: the clusters of {} hold no probability", side));
     std::vector<long long> m(c.size());
     long long sum = 0;
     std::size_t largest = 0;
     for (std::size_t i = 0; i < c.size(); ++i) {
-      m[i] = std::llround(c[i].probability / total * static_cast<double>(kMass));
+      m[i] = std::llround(c[i].probability / total * static_cast<double>(kFlakeTransportMass));
       sum += m[i];
       if (m[i] > m[largest]) largest = i;
     }
-    m[largest] += kMass - sum;
+    m[largest] += kFlakeTransportMass - sum;
     return m;
   };
-  const std::vector<long long> ma = masses(a), mb = masses(b);
+  const std::vector<long long> ma = masses(a, "the first slice"), mb = masses(b, "the second slice");
   lemon::SmartDigraph g;
   std::vector<lemon::SmartDigraph::Node> na, nb;
+  std::vector<lemon::SmartDigraph::Arc> arcs;
   for (std::size_t i = 0; i < a.size(); ++i) na.push_back(g.addNode());
   for (std::size_t j = 0; j < b.size(); ++j) nb.push_back(g.addNode());
   lemon::SmartDigraph::ArcMap<long long> cost(g);
@@ -611,15 +614,40 @@ double flake_colour_emd(const std::vector<FlakeCluster>& a, const std::vector<Fl
   for (std::size_t i = 0; i < a.size(); ++i)
     for (std::size_t j = 0; j < b.size(); ++j) {
       const auto arc = g.addArc(na[i], nb[j]);
-      const double d = std::sqrt(std::pow(a[i].mean.L - b[j].mean.L, 2) + std::pow(a[i].mean.a - b[j].mean.a, 2) +
-                                 std::pow(a[i].mean.b - b[j].mean.b, 2));
-      cost[arc] = std::llround(d * kCostScale);
+      arcs.push_back(arc);
+      cost[arc] = std::llround(de76(a[i].mean, b[j].mean) * kFlakeTransportCostScale);
     }
   lemon::NetworkSimplex<lemon::SmartDigraph, long long, long long> ns(g);
   ns.costMap(cost).supplyMap(supply);
   if (ns.run() != lemon::NetworkSimplex<lemon::SmartDigraph, long long, long long>::OPTIMAL)
     throw DataError("flake colour transport: no optimal solution (unbalanced masses)");
-  return static_cast<double>(ns.totalCost<long double>()) / (static_cast<double>(kMass) * kCostScale);
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      const long long f = ns.flow(arcs[i * b.size() + j]);
+      if (f > 0) out.flows.push_back({i, j, static_cast<double>(f) / static_cast<double>(kFlakeTransportMass)});
+    }
+  // The cost of the flows at the exact distances (the solver's are rounded to 1e-6 dE).
+  for (const FlakeTransport::Flow& f : out.flows) out.cost += f.mass * de76(a[f.from].mean, b[f.to].mean);
+  return out;
+}
+
+double flake_colour_emd(const std::vector<FlakeCluster>& a, const std::vector<FlakeCluster>& b) {
+  return flake_transport(a, b).cost;
+}
+
+std::vector<std::uint8_t> flake_inverse_cdf(const std::vector<FlakeCluster>& clusters, int steps) {
+  std::vector<std::uint8_t> cdf;
+  if (clusters.empty()) return cdf;
+  if (clusters.size() > 256) throw DataError(fmt::format("flake clusters: {} clusters, at most 256 fit an inverse CDF", clusters.size()));
+  cdf.resize(static_cast<std::size_t>(steps));
+  double cum = 0.0;
+  std::size_t c = 0;
+  for (int k = 0; k < steps; ++k) {
+    const double u = (k + 0.5) / steps;
+    while (c + 1 < clusters.size() && cum + clusters[c].probability < u) cum += clusters[c++].probability;
+    cdf[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(c);
+  }
+  return cdf;
 }
 
 std::vector<FlakeCluster> flake_chromaticities(const std::vector<FlakeCluster>& clusters) {

@@ -171,9 +171,31 @@ FlakeStats extract_flakes(const std::vector<std::pair<const ExrImage*, double>>&
 
 // The earth mover's distance between two slices' colour distributions (their clusters'
 // means with their probabilities; CIELAB Euclidean distance as the ground cost, dE76): an
-// exact transport by LEMON's network simplex, on masses scaled to integers (1e9 each side)
-// and costs to micro-dE. 0 when either is empty.
+// exact transport by LEMON's network simplex (flake_transport below). 0 when either is empty.
 double flake_colour_emd(const std::vector<FlakeCluster>& a, const std::vector<FlakeCluster>& b);
+
+// The optimal transport behind flake_colour_emd: the flows (cluster `from` of a to cluster
+// `to` of b, mass in probability; at most a.size() + b.size() - 1 of them, a basic solution)
+// and their cost at the exact distances (dE76 x mass; the solver works on masses scaled to
+// kFlakeTransportMass and costs to 1 / kFlakeTransportCostScale dE, so the cost is optimal to
+// about 1e-10 dE). The masses out of a cluster sum to its probability (normalised over its
+// slice) within 1 / kFlakeTransportMass.
+// Empty for an empty side; DataError for negative probabilities or a side without mass.
+inline constexpr long long kFlakeTransportMass = 1'000'000'000'000'000;  // 1e15: masses to 1e-15
+inline constexpr double kFlakeTransportCostScale = 1e10;  // 1e-10 dE; 500 dE is 5e12, far below 2^63
+struct FlakeTransport {
+  struct Flow {
+    std::size_t from = 0, to = 0;
+    double mass = 0.0;
+  };
+  std::vector<Flow> flows;
+  double cost = 0.0;
+};
+FlakeTransport flake_transport(const std::vector<FlakeCluster>& a, const std::vector<FlakeCluster>& b);
+
+// Entry k of `steps`: the cluster where the cumulative probability passes (k + 0.5) / steps
+// (clusters in their order; at most 256 clusters: DataError beyond).
+std::vector<std::uint8_t> flake_inverse_cdf(const std::vector<FlakeCluster>& clusters, int steps);
 
 // A colour drawn from a cluster (a contrast colour, linear RGB): the cluster mean's
 // chromaticity at a lightness L* = lo.L + u (hi.L - lo.L), u in [0, 1). Drawing a*, b* and L*
