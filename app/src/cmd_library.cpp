@@ -33,6 +33,8 @@ struct LibraryArgs {
   std::vector<std::string> parents;
   std::vector<double> weights;
   bool free_weights = false;
+  bool flakes_lightness_only = false;
+  bool keep_flake_lightness = false;
   std::string out;
 };
 
@@ -188,6 +190,8 @@ int run_interpolate(const LibraryArgs& a) {
   fit::InterpolateOptions o;
   o.name = a.name;
   o.free_weights = a.free_weights;
+  if (a.flakes_lightness_only) o.flake_colour = fit::FlakeColourMode::LightnessOnly;
+  if (a.keep_flake_lightness) o.flake_colour = fit::FlakeColourMode::KeepLightness;
   const fit::RealisedPaint r = fit::interpolate_paints(parents, a.weights, o);
   for (const std::string& n : r.notes) spdlog::warn("{}", n);
   for (const std::string& c : r.clamped)
@@ -245,6 +249,12 @@ void register_library_commands(CLI::App& app) {
       ->required()
       ->delimiter(',');
   interp->add_flag("--free-weights", ip->free_weights, "Allow weights that do not sum to 1");
+  auto* lightness_only = interp->add_flag(
+      "--flakes-lightness-only", ip->flakes_lightness_only,
+      "Interpolate only the flakes' lightness; their hue (a*, b*) stays the first paint's (Golla and Klein 4.4)");
+  interp->add_flag("--keep-flake-lightness", ip->keep_flake_lightness,
+                   "Keep the first paint's flake lightness; their hue interpolates")
+      ->excludes(lightness_only);
   interp->add_option("--name", ip->name, "Name of the new paint (default: the parents' names and weights)")
       ->check(utf8_text());
   interp->add_option("--out", ip->out, "The AxF-like file to write (outside the library; `library add` adds it)")

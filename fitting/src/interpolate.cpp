@@ -90,10 +90,19 @@ brdf::AxfCarPaintParams lerp_carpaint(const brdf::AxfCarPaintParams& a, const br
 // Realised clusters: the flows' cuboids at the weights, most likely first. At weights (1, 0)
 // or (0, 1) the flows out of (into) one parent cluster coincide and are merged, so a cluster
 // split over several flows is whole again.
-std::vector<FlakeCluster> realise_clusters(const InterpolatableSlice& s, double wa, double wb, std::uint64_t glints) {
+std::vector<FlakeCluster> realise_clusters(const InterpolatableSlice& s, double wa, double wb, FlakeColourMode mode,
+                                           std::uint64_t glints) {
   std::vector<FlakeCluster> out;
   out.reserve(s.clusters.size());
-  const bool only_a = wb == 0.0 && wa == 1.0, only_b = wa == 0.0 && wb == 1.0;
+  // Section 4.4 of the paper: the flakes' lightness (L*) and hue (a*, b*) apart. The part kept
+  // takes the first paint's values: weights (1, 0).
+  const double la = mode == FlakeColourMode::KeepLightness ? 1.0 : wa, lb = mode == FlakeColourMode::KeepLightness ? 0.0 : wb;
+  const double ca = mode == FlakeColourMode::LightnessOnly ? 1.0 : wa, cb = mode == FlakeColourMode::LightnessOnly ? 0.0 : wb;
+  auto mix = [&](const colour::Lab& x, const colour::Lab& y) {
+    return colour::Lab{la * x.L + lb * y.L, ca * x.a + cb * y.a, ca * x.b + cb * y.b};
+  };
+  const bool only_a = lb == 0.0 && la == 1.0 && cb == 0.0 && ca == 1.0;
+  const bool only_b = la == 0.0 && lb == 1.0 && ca == 0.0 && cb == 1.0;
   std::vector<int> merged;  // parent cluster index -> its place in `out`
   for (const InterpolatableCluster& c : s.clusters) {
     if (only_a || only_b) {
@@ -106,9 +115,9 @@ std::vector<FlakeCluster> realise_clusters(const InterpolatableSlice& s, double 
       merged[key] = static_cast<int>(out.size());
     }
     FlakeCluster r;
-    r.mean = lerp(c.from.mean, c.to.mean, wa, wb);
-    r.lo = lerp(c.from.lo, c.to.lo, wa, wb);
-    r.hi = lerp(c.from.hi, c.to.hi, wa, wb);
+    r.mean = mix(c.from.mean, c.to.mean);
+    r.lo = mix(c.from.lo, c.to.lo);
+    r.hi = mix(c.from.hi, c.to.hi);
     // Extrapolation can turn a cuboid inside out: its corners stay ordered.
     for (double colour::Lab::*f : {&colour::Lab::L, &colour::Lab::a, &colour::Lab::b})
       if (r.lo.*f > r.hi.*f) std::swap(r.lo.*f, r.hi.*f);
@@ -125,7 +134,7 @@ std::vector<FlakeCluster> realise_clusters(const InterpolatableSlice& s, double 
   return out;
 }
 
-FlakeSlice realise_slice(const InterpolatableSlice& s, double wa, double wb, int cdf_steps,
+FlakeSlice realise_slice(const InterpolatableSlice& s, double wa, double wb, FlakeColourMode mode, int cdf_steps,
                          std::vector<std::string>* notes) {
   FlakeSlice out;
   out.theta_f = s.theta_f;
@@ -143,13 +152,14 @@ FlakeSlice realise_slice(const InterpolatableSlice& s, double wa, double wb, int
   out.runs = lerp_count(s.a.runs, s.b.runs, wa, wb);
   out.lifetime_deg = clamp_noted(lerp(s.a.lifetime_deg, s.b.lifetime_deg, wa, wb), 0.0, 90.0, w + " lifetime_deg", notes);
   if (out.glints > 0 && !s.clusters.empty()) {
-    out.clusters = realise_clusters(s, wa, wb, out.glints);
+    out.clusters = realise_clusters(s, wa, wb, mode, out.glints);
     out.inverse_cdf = flake_inverse_cdf(out.clusters, cdf_steps);
   }
   return out;
 }
 
-FlakeStats realise_flakes(const InterpolatablePaint& m, double wa, double wb, std::vector<std::string>* notes) {
+FlakeStats realise_flakes(const InterpolatablePaint& m, double wa, double wb, FlakeColourMode mode,
+                          std::vector<std::string>* notes) {
   const FlakeStats& a = *m.a.flake_stats;
   const FlakeStats& b = *m.b.flake_stats;
   FlakeStats out;
@@ -160,7 +170,7 @@ FlakeStats realise_flakes(const InterpolatablePaint& m, double wa, double wb, st
   out.step_deg = lerp(a.step_deg, b.step_deg, wa, wb);
   out.lifetime_deg = clamp_noted(lerp(a.lifetime_deg, b.lifetime_deg, wa, wb), 0.0, 90.0, "flake lifetime_deg", notes);
   for (const InterpolatableSlice& s : m.slices) {
-    FlakeSlice sl = realise_slice(s, wa, wb, a.options.cdf_steps, notes);
+    FlakeSlice sl = realise_slice(s, wa, wb, mode, a.options.cdf_steps, notes);
     out.pixels += sl.pixels;
     out.glints += sl.glints;
     out.runs += sl.runs;
@@ -269,7 +279,7 @@ InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b) {
   return m;
 }
 
-RealisedPaint realise(const InterpolatablePaint& m, double wa, double wb, bool flake_btf) {
+RealisedPaint realise(const InterpolatablePaint& m, double wa, double wb, bool flake_btf, FlakeColourMode mode) {
   if (!std::isfinite(wa) || !std::isfinite(wb)) throw DataError("interpolation: the weights must be finite numbers");
   RealisedPaint r;
   AxfPaint& p = r.paint;
@@ -283,7 +293,7 @@ RealisedPaint realise(const InterpolatablePaint& m, double wa, double wb, bool f
   }
   if (m.a.carpaint && m.b.carpaint) p.carpaint = lerp_carpaint(*m.a.carpaint, *m.b.carpaint, wa, wb, &r.clamped);
   if (m.a.flake_stats) {
-    p.flake_stats = realise_flakes(m, wa, wb, &r.clamped);
+    p.flake_stats = realise_flakes(m, wa, wb, mode, &r.clamped);
     if (flake_btf && !p.flake_stats->empty()) p.flake_btf = make_flake_btf(*p.flake_stats, m.a.flake_btf ? m.a.flake_btf->texture_size : 32);
   }
   p.provenance.source = fmt::format("interpolation: {} {}, {} {}", m.a.name, weight_text(wa), m.b.name, weight_text(wb));
@@ -313,7 +323,10 @@ RealisedPaint interpolate_paints(const std::vector<AxfPaint>& parents, const std
   // then R_k = (s_{k-1} R_{k-1} + w_k P_k) / s_k, and the last unnormalised: sum w_i P_i.
   std::vector<std::size_t> order(parents.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return weights[x] > weights[y]; });
+  // With a flake colour mode the first paint leads (its flakes' hue or lightness is kept).
+  const std::size_t sorted_from = options.flake_colour == FlakeColourMode::All ? 0 : 1;
+  std::stable_sort(order.begin() + static_cast<std::ptrdiff_t>(sorted_from), order.end(),
+                   [&](std::size_t x, std::size_t y) { return weights[x] > weights[y]; });
   RealisedPaint r;
   AxfPaint current = parents[order[0]];
   double s = weights[order[0]];
@@ -331,7 +344,7 @@ RealisedPaint interpolate_paints(const std::vector<AxfPaint>& parents, const std
                                   k + 1));
     const InterpolatablePaint m = interpolatable_paint(current, parents[order[k]]);
     notes.insert(notes.end(), m.notes.begin(), m.notes.end());
-    r = realise(m, s / scale, weights[order[k]] / scale, last);
+    r = realise(m, s / scale, weights[order[k]] / scale, last, options.flake_colour);
     clamped.insert(clamped.end(), r.clamped.begin(), r.clamped.end());
     current = r.paint;
     current.name = parents[order[0]].name;

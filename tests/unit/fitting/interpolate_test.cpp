@@ -221,6 +221,38 @@ TEST(Interpolation, HalfWayColoursLieBetweenTheParents) {
   }
 }
 
+// Section 4.4 of the paper: the flakes' lightness and hue apart.
+TEST(Interpolation, FlakeLightnessAndHueInterpolateApart) {
+  const AxfPaint a = paint("silver", 1.0, 3.0, 1), b = paint("gold", 1.3, 12.0, 7);
+  const InterpolatablePaint m = interpolatable_paint(a, b);
+  const RealisedPaint all = realise(m, 0.5, 0.5);
+  const RealisedPaint lightness = realise(m, 0.5, 0.5, false, FlakeColourMode::LightnessOnly);
+  const RealisedPaint hue = realise(m, 0.5, 0.5, false, FlakeColourMode::KeepLightness);
+  // The rest of the paint is the same in all three.
+  EXPECT_EQ(lightness.paint.cook_torrance->params, all.paint.cook_torrance->params);
+  EXPECT_EQ(hue.paint.cook_torrance->params, all.paint.cook_torrance->params);
+  for (const InterpolatableSlice& s : m.slices) {
+    const FlakeSlice& sl = *lightness.paint.flake_stats->slice(s.theta_f, s.theta_i);
+    const FlakeSlice& sh = *hue.paint.flake_stats->slice(s.theta_f, s.theta_i);
+    // Lightness only: every cluster's (a*, b*) is one of the first paint's, its L* halfway.
+    for (const FlakeCluster& c : sl.clusters) {
+      const auto from = std::find_if(s.clusters.begin(), s.clusters.end(), [&](const InterpolatableCluster& f) {
+        return f.from.mean.a == c.mean.a && f.from.mean.b == c.mean.b &&
+               std::abs(c.mean.L - 0.5 * (f.from.mean.L + f.to.mean.L)) < 1e-12;
+      });
+      EXPECT_NE(from, s.clusters.end()) << c.mean.L << " " << c.mean.a;
+    }
+    // Keep lightness: every L* is the first paint's, (a*, b*) halfway.
+    for (const FlakeCluster& c : sh.clusters) {
+      const auto from = std::find_if(s.clusters.begin(), s.clusters.end(), [&](const InterpolatableCluster& f) {
+        return f.from.mean.L == c.mean.L && std::abs(c.mean.a - 0.5 * (f.from.mean.a + f.to.mean.a)) < 1e-12 &&
+               std::abs(c.mean.b - 0.5 * (f.from.mean.b + f.to.mean.b)) < 1e-12;
+      });
+      EXPECT_NE(from, s.clusters.end()) << c.mean.L << " " << c.mean.a;
+    }
+  }
+}
+
 TEST(Interpolation, ExtrapolationClampsAndSaysWhat) {
   const AxfPaint a = paint("silver", 1.0, 3.0, 1), b = paint("gold", 1.3, 12.0, 7);
   const InterpolatablePaint m = interpolatable_paint(a, b);
@@ -311,6 +343,11 @@ TEST(InterpolationCli, InterpolatesPaintsOfALibrary) {
   EXPECT_NEAR(mix.cook_torrance->params.lobes[1].m, 0.75 * 0.16 + 0.25 * 0.208, 1e-12);
   EXPECT_TRUE(mix.flake_stats && mix.flake_btf);
   EXPECT_TRUE(validate_axf_file(out).ok());
+  // The flakes' hue kept, their lightness interpolated.
+  r = test::run_paintlab("library interpolate --dir " + lib + " silver gold --weights 0.5,0.5 --flakes-lightness-only "
+                         "--name hue-of-silver --out " + (tmp / "hue.axf.h5").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_axf_file(tmp / "hue.axf.h5").name, "hue-of-silver");
   // Extrapolation far out: written, with what was clamped.
   r = test::run_paintlab("library interpolate --dir " + lib + " silver gold --weights=20,-19 --name far --out " +
                          (tmp / "far.axf.h5").string());
@@ -324,6 +361,10 @@ TEST(InterpolationCli, InterpolatesPaintsOfALibrary) {
   r = test::run_paintlab("library interpolate --dir " + lib + " silver bronze --weights 0.5,0.5 --out " + bad);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("'bronze': neither a paint in library"));
+  r = test::run_paintlab("library interpolate --dir " + lib + " silver gold --weights 0.5,0.5 --keep-flake-lightness "
+                         "--flakes-lightness-only --out " + bad);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("excludes"));
   r = test::run_paintlab("library interpolate --dir " + lib + " silver gold --weights 0.5,0.5 --out " + lib +
                          "/index.json");
   EXPECT_EQ(r.exit_code, 2);

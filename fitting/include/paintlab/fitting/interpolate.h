@@ -47,6 +47,11 @@ struct InterpolatablePaint {
 // ior), or flakes in one paint only.
 InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b);
 
+// How the flake clusters' colours interpolate (the paper's section 4.4): all of CIELAB, only
+// their lightness L* (a*, b* stay the first paint's: `--flakes-lightness-only`), or all but
+// their lightness (L* stays the first paint's: `--keep-flake-lightness`).
+enum class FlakeColourMode { All, LightnessOnly, KeepLightness };
+
 struct RealisedPaint {
   AxfPaint paint;
   // Values an extrapolation took outside what a paint can hold, each named with its value
@@ -59,14 +64,18 @@ struct RealisedPaint {
 // size of the first parent's (most of a realisation's time; a slider previewing through
 // FlakeSparkle needs only the statistics). Provenance: source "interpolation: A wA, B wB"; the fit quality is dropped (no
 // measurement was fitted).
-RealisedPaint realise(const InterpolatablePaint& m, double wa, double wb, bool flake_btf = true);
+RealisedPaint realise(const InterpolatablePaint& m, double wa, double wb, bool flake_btf = true,
+                      FlakeColourMode flake_colour = FlakeColourMode::All);
 
 struct InterpolateOptions {
   std::string name;           // of the result (default: the parents' names and weights)
   bool free_weights = false;  // weights need not sum to 1
+  // With a mode other than All the first paint leads the iterated transports (its flakes'
+  // hue or lightness is what is kept); the rest follow by falling weight.
+  FlakeColourMode flake_colour = FlakeColourMode::All;
 };
 // Any number (2 to 5) of parents: iterated transport, the paints taken in order of falling
-// weight. DataError naming --weights when the weights are not one per paint, or do not sum to
+// weight (the first paint first with a flake colour mode). DataError naming --weights when the weights are not one per paint, or do not sum to
 // 1 (within 1e-9) without free_weights, or (free weights) when the largest ones sum to 0.
 RealisedPaint interpolate_paints(const std::vector<AxfPaint>& parents, const std::vector<double>& weights,
                                  const InterpolateOptions& options = {});
