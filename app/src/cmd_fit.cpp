@@ -57,11 +57,23 @@ struct FitArgs {
   std::string name;
   std::uint64_t seed = 1;
   int max_iterations = 100;
-  std::uint32_t min_samples = fit::SharedFitOptions{}.min_samples;
+  std::string min_samples = "auto";
   std::string residuals = "log";
   std::string flakes;  // the flakes.json to measure against the fit (a session only)
   ExtractArgs extract;
 };
+
+// --min-samples auto|N: 0 is auto (FitDataOptions::min_samples).
+std::uint32_t parse_min_samples(const std::string& text) {
+  if (text == "auto") return 0;
+  try {
+    std::size_t used = 0;
+    const long v = std::stol(text, &used);
+    if (used == text.size() && v >= 1 && v <= 100000) return static_cast<std::uint32_t>(v);
+  } catch (const std::exception&) {
+  }
+  throw UsageError(fmt::format("--min-samples: '{}' is neither auto nor a count from 1 to 100000", text));
+}
 
 int run_fit(const FitArgs& a) {
   fit::SharedFitOptions shared;
@@ -69,7 +81,7 @@ int run_fit(const FitArgs& a) {
   shared.seed = a.seed;
   shared.threads = a.extract.threads;
   shared.max_iterations = a.max_iterations;
-  shared.min_samples = a.min_samples;
+  shared.min_samples = parse_min_samples(a.min_samples);
   fit::FitRequest req = fit::FitRequest::with(fit::fit_model_from_string(a.model, "--model"), "fitted", shared);
   req.cook_torrance.data.residuals = fit::fit_residuals_from_string(a.residuals, "--residuals");
   req.check();
@@ -190,9 +202,11 @@ void register_fit_commands(CLI::App& app) {
               {"CtFitOptions::max_iterations", "AxfFitOptions::max_iterations"})
       ->capture_default_str();
   sets_fields(fit->add_option("--min-samples", args->min_samples,
-                  "Pool neighbouring phi_d bins of a session into fit points of at least this many samples (flake "
-                  "sparkle: a bin of a few samples is decided by a glint or its absence; 1 = a point per bin; MERL "
-                  "tables, which hold no counts, are never pooled)"),
+                              "Pool neighbouring phi_d bins of a session into fit points of at least this many "
+                              "samples: auto (16 when the glossy samples spread more than 20 x their noise, flake "
+                              "sparkle, where a bin of a few samples is decided by a glint or its absence; a point "
+                              "per bin otherwise), or a count (1 = a point per bin). MERL tables hold no counts and "
+                              "are never pooled"),
               {"FitDataOptions::min_samples"})
       ->capture_default_str();
   fit->add_option("--residuals", args->residuals,

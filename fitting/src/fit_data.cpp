@@ -8,6 +8,7 @@
 #include "fit_util.h"
 #include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
+#include "paintlab/core/geometry.h"
 #include "paintlab/core/robust.h"
 
 namespace paintlab::fit {
@@ -111,7 +112,6 @@ void linear_weights(FitData& data, const brdf::MerlTable& table, const std::vect
 void FitDataOptions::check() const {
   if (!(relative_floor > 0.0 && relative_floor < 1.0))
     throw OptionError("FitDataOptions::relative_floor", fmt::format("{}", relative_floor), "(0, 1)");
-  if (min_samples < 1) throw OptionError("FitDataOptions::min_samples", std::to_string(min_samples), ">= 1");
   if (window_phi_d < 1 || window_phi_d > kMerlPhiD / 2)
     throw OptionError("FitDataOptions::window_phi_d", std::to_string(window_phi_d), "1..90");
 }
@@ -147,11 +147,32 @@ void MultiStartOptions::check_shared(const char* owner) const {
   data.check();
 }
 
-FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& options,
+double sparkle_excess(const brdf::MerlTable& table, const std::vector<float>* noise_variance, int channel) {
+  if (!noise_variance || noise_variance->size() != 3 * kMerlBins) return NAN;
+  const double lo = deg_to_rad(4.0), hi = deg_to_rad(25.0);
+  double spread = 0.0, noise = 0.0;
+  for (std::size_t b = 0; b < kMerlBins; ++b) {
+    if (table.state(b) != brdf::BinState::Measured || table.count(b) < 3) continue;
+    const double theta_h = table.mean_coords(b)[0];
+    if (theta_h < lo || theta_h >= hi) continue;
+    const double dof = static_cast<double>(table.count(b) - 1);
+    spread += dof * table.variance(b)[channel];
+    noise += dof * static_cast<double>((*noise_variance)[3 * b + static_cast<std::size_t>(channel)]);
+  }
+  return noise > 0.0 ? spread / noise : NAN;
+}
+
+FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& requested,
                          const std::vector<float>* noise_variance) {
-  options.check();
+  requested.check();
   FitData data;
-  data.options = options;
+  FitDataOptions options = requested;
+  data.options = requested;
+  if (options.min_samples == 0) {
+    data.sparkle_excess = sparkle_excess(table, noise_variance);
+    options.min_samples = data.sparkle_excess > kSparkleExcess ? kSparklePooling : 1;
+  }
+  data.min_samples = options.min_samples;
   std::size_t with_counts = 0, measured = 0;
   for (std::size_t b = 0; b < kMerlBins; ++b) {
     if (table.state(b) != brdf::BinState::Measured) continue;
@@ -343,6 +364,8 @@ FitData combine_site_data(std::array<FitData, 3> per_site) {
   out.has_statistics = per_site[0].has_statistics && per_site[1].has_statistics && per_site[2].has_statistics;
   out.noise_source = per_site[1].noise_source;
   out.linear = per_site[1].linear;
+  out.min_samples = per_site[1].min_samples;
+  out.sparkle_excess = per_site[1].sparkle_excess;
   for (int c = 0; c < 3; ++c) {
     FitData& d = per_site[static_cast<std::size_t>(c)];
     const auto offset = static_cast<std::uint32_t>(out.members.size());
@@ -381,6 +404,8 @@ Json ResidualReport::to_json() const {
           {"residuals", total.residuals},
           {"noise_floor_log_rms", number_or_null(total.noise_floor)},
           {"noise_source", to_string(noise_source)},
+          {"min_samples", min_samples},
+          {"sparkle_excess", number_or_null(sparkle_excess)},
           {"regions", regions_json}, {"curves", curves_json}, {"coverage", coverage_json}};
 }
 
@@ -435,6 +460,8 @@ std::vector<FitCurve> fit_curves(const FitData& data, const std::vector<double>&
 ResidualReport residual_report(const FitData& data, const std::vector<double>& model) {
   ResidualReport rep;
   rep.noise_source = data.noise_source;
+  rep.min_samples = data.min_samples;
+  rep.sparkle_excess = data.sparkle_excess;
   std::array<double, kRegionCount + 1> sq{}, noise{};
   for (std::size_t q = 0; q < data.bins.size(); ++q) {
     const FitBin& b = data.bins[q];

@@ -64,6 +64,14 @@ std::string region_lines(const ResidualReport& r) {
                               r.total.residuals);
   if (std::isfinite(r.total.noise_floor)) s += fmt::format(", noise floor {:.4f}", r.total.noise_floor);
   s += "\n";
+  if (r.min_samples > 1 || std::isfinite(r.sparkle_excess)) {
+    s += r.min_samples > 1 ? fmt::format("  fit points        phi_d bins pooled to {} samples", r.min_samples)
+                           : std::string("  fit points        a point per bin");
+    if (std::isfinite(r.sparkle_excess))
+      s += fmt::format(" (glossy samples spread {:.3g} x their noise: {})", r.sparkle_excess,
+                       r.sparkle_excess > kSparkleExcess ? "sparkle" : "no sparkle");
+    s += "\n";
+  }
   for (int k = 0; k < kRegionCount; ++k) {
     const RegionResidual& g = r.regions[k];
     s += fmt::format("    {:<8} {:.4f} over {} bins", to_string(static_cast<Region>(k)), g.log_rms, g.bins);
@@ -150,11 +158,24 @@ FitOutcome fit_sites(const SiteTables& sites, const FitRequest& request, const J
                                 "is fitted in the session's colour space (fit without the sites)",
                                 to_string(request.model)));
   const CtFitOptions& options = request.cook_torrance;
+  // Auto pooling decided once for the three tables (each looked at in its own colour): the
+  // sites of one camera see the same flakes.
+  FitDataOptions site_data = options.data;
+  double excess = NAN;
+  if (site_data.min_samples == 0) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      const BinnedTable& t = sites.tables[c];
+      const double e = sparkle_excess(t.table, t.noise_variance.empty() ? nullptr : &t.noise_variance, static_cast<int>(c));
+      if (std::isfinite(e) && !(e <= excess)) excess = e;
+    }
+    site_data.min_samples = excess > kSparkleExcess ? kSparklePooling : 1;
+  }
   std::array<FitData, 3> per_site;
   for (std::size_t c = 0; c < 3; ++c) {
     const BinnedTable& t = sites.tables[c];
     try {
-      per_site[c] = prepare_fit_data(t.table, options.data, t.noise_variance.empty() ? nullptr : &t.noise_variance);
+      per_site[c] = prepare_fit_data(t.table, site_data, t.noise_variance.empty() ? nullptr : &t.noise_variance);
+      per_site[c].sparkle_excess = excess;
     } catch (const DataError& e) {
       throw DataError(fmt::format("the {} sites: {}", std::array<const char*, 3>{"red", "green", "blue"}[c], e.what()));
     }

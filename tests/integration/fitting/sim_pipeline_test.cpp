@@ -74,6 +74,7 @@ void report(const char* what, const CookTorranceFit& f) {
               f.residual.total.log_rms, f.residual.total.noise_floor,
               f.residual.total.log_rms / f.residual.total.noise_floor, f.residual.regions[0].log_rms,
               f.residual.regions[1].log_rms, f.residual.regions[2].log_rms, f.summary.iterations, f.summary.time_s);
+  std::printf("  sparkle excess %.3g: fit points of %u samples at least\n", f.residual.sparkle_excess, f.residual.min_samples);
 }
 
 // The accuracy targets; `clear_coat_ks`: the tolerance on the ks of a clear-coat lobe (m <

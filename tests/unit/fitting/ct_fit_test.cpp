@@ -203,6 +203,40 @@ TEST(FitData, LinearWeightsDoNotDependOnTheBinsOwnValue) {
   EXPECT_THROW(o.check(), OptionError);
 }
 
+// Auto pooling (FitDataOptions::min_samples 0): a table whose glossy samples spread like their
+// noise is fitted a point per bin; one whose spread is many times the noise (flake sparkle)
+// pools to kSparklePooling samples a point, and the residual report says which.
+TEST(FitData, AutoPoolingFollowsTheSparkle) {
+  const brdf::CookTorranceParams truth = blue_params();
+  const brdf::CookTorrance paint(truth.kd, truth.lobes);
+  BinnedTable binned = test_support::binned_sweep(paint, 100, 0.02, test::seed(), 2.0);
+  const double plain_excess = sparkle_excess(binned.table, &binned.noise_variance);
+  std::printf("sparkle excess without flakes: %.2f\n", plain_excess);
+  EXPECT_GT(plain_excess, 0.5);
+  EXPECT_LT(plain_excess, 3.0);
+  FitDataOptions o;  // min_samples 0: auto
+  const FitData plain = prepare_fit_data(binned.table, o, &binned.noise_variance);
+  EXPECT_EQ(plain.min_samples, 1u);
+  EXPECT_DOUBLE_EQ(plain.sparkle_excess, plain_excess);
+  for (const FitBin& b : plain.bins) EXPECT_EQ(b.bins, 1u);
+  // The same table with glints: the samples' spread 400 x their noise.
+  for (std::size_t b = 0; b < brdf::kMerlBins; ++b)
+    if (binned.table.state(b) == brdf::BinState::Measured)
+      binned.table.set_statistics(b, binned.table.count(b), 400.0 * binned.table.variance(b), binned.table.mean_coords(b));
+  EXPECT_NEAR(sparkle_excess(binned.table, &binned.noise_variance), 400.0 * plain_excess, 1e-5 * 400.0 * plain_excess);  // float variances
+  const FitData sparkly = prepare_fit_data(binned.table, o, &binned.noise_variance);
+  EXPECT_EQ(sparkly.min_samples, kSparklePooling);
+  EXPECT_LT(sparkly.bins.size(), plain.bins.size() / 2);
+  const ResidualReport rep = residual_report(sparkly, std::vector<double>(3 * sparkly.bins.size(), 0.1));
+  EXPECT_EQ(rep.to_json()["min_samples"], kSparklePooling);
+  // Without noise variances there is nothing to compare with: a point per bin.
+  EXPECT_TRUE(std::isnan(sparkle_excess(binned.table, nullptr)));
+  EXPECT_EQ(prepare_fit_data(binned.table, o).min_samples, 1u);
+  // An explicit count is used as it is.
+  o.min_samples = 1;
+  EXPECT_EQ(prepare_fit_data(binned.table, o, &binned.noise_variance).min_samples, 1u);
+}
+
 TEST(CookTorranceFit, RecoversTwoLobesWithLinearResiduals) {
   const brdf::CookTorranceParams truth = blue_params();
   const brdf::CookTorrance paint(truth.kd, truth.lobes);

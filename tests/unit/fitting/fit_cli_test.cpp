@@ -120,6 +120,9 @@ TEST(FitCli, BadInputFailsWithoutWritingAnything) {
   r = test::run_paintlab("fit " + (dir / "holes.binary").string() + " --lobes 4 --out " + out);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("lobes"));
+  r = test::run_paintlab("fit " + (dir / "holes.binary").string() + " --min-samples some --out " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--min-samples: 'some' is neither auto nor a count from 1 to 100000"));
   r = test::run_paintlab("fit " + (dir / "holes.binary").string() + " --model phong --out " + out);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("unknown model 'phong'"));
@@ -235,6 +238,10 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   EXPECT_EQ(j["input"]["positions"].get<std::size_t>(), sim->frames.size());
   EXPECT_EQ(j["input"]["coverage"]["total"]["measured_bins"].get<std::size_t>(), measured);
   EXPECT_EQ(j["residual"]["noise_source"], "sample-noise");
+  // A solid paint: a point per bin (auto pooling), and the glossy samples' spread said.
+  EXPECT_EQ(j["residual"]["min_samples"], 1);
+  EXPECT_LT(j["residual"]["sparkle_excess"].get<double>(), kSparkleExcess);
+  EXPECT_THAT(r.out, HasSubstr("fit points        a point per bin (glossy samples spread"));
   // The extraction rules it was binned with: no blur in this calibration, the 2 px margin.
   EXPECT_EQ(j["input"]["blur_sigma_px"].get<double>(), 0.0);
   EXPECT_EQ(j["input"]["valid_margin_px"].get<int>(), 2);

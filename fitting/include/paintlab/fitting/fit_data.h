@@ -60,6 +60,21 @@ const char* to_string(FitResiduals r);  // "log", "linear"
 // DataError naming `where` for other names.
 FitResiduals fit_residuals_from_string(std::string_view s, std::string_view where);
 
+// Auto pooling (FitDataOptions::min_samples 0): the samples a fit point pools to when the table
+// sparkles, and the sparkle_excess above which it does.
+inline constexpr std::uint32_t kSparklePooling = 16;
+inline constexpr double kSparkleExcess = 20.0;
+
+// How much the samples of the glossy region (theta_h 4-25 deg, outside the clear coat's peak)
+// spread beyond their noise: sum over its bins of (n - 1) x sample variance over the same sum
+// of the per-sample noise variance, in green. Measured: 0.9-3.3 for the simulated paints
+// without flakes (bins wide for a lobe spread more) and 8.0 for the green pearlescent (its
+// colour travels within a bin); with the silver metallic's flakes 1450 on the 640 x 480 rig,
+// 8320 on the full demo's Bayer rig, 22.5 and 10.6 on the quick demo's half-resolution Bayer
+// and filter-wheel rigs (more flakes a pixel, each glint shared). docs/fitting.md "Pooling". NaN without noise variances or bins of 3 samples or more. `channel`: the
+// table's channel to look at (a filter-array site table holds its own colour only).
+double sparkle_excess(const brdf::MerlTable& table, const std::vector<float>* noise_variance, int channel = 1);
+
 struct FitDataOptions {
   double relative_floor = 0.01;  // floor of sigma (relative error), > 0
   FitResiduals residuals = FitResiduals::Log;
@@ -72,8 +87,11 @@ struct FitDataOptions {
   // count-weighted mean of the model at each member bin's mean coordinates, so pooling
   // adds no model error. Why: with flake sparkle single pixels vary by 100 % and more, and
   // the log of a mean over a few samples is biased far beyond what a delta-method
-  // correction repairs; the log of a mean over many is not.
-  std::uint32_t min_samples = 1;
+  // correction repairs; the log of a mean over many is not. 0 = auto: kSparklePooling when
+  // the table sparkles (sparkle_excess above kSparkleExcess), else 1. Pooling changes how much
+  // each region of the table weighs in the fit (a pooled point is one residual), so a paint a
+  // model cannot follow (a pearlescent under Cook-Torrance) is fitted a point per bin.
+  std::uint32_t min_samples = 0;
   void check() const;
 };
 
@@ -132,6 +150,8 @@ struct FitData {
   bool has_statistics = false;   // counts and variances were available
   NoiseSource noise_source = NoiseSource::None;
   bool linear = false;           // residuals in linear form (FitResiduals::Linear)
+  std::uint32_t min_samples = 1; // the pooling used (options.min_samples, or what auto chose)
+  double sparkle_excess = NAN;   // of the table (auto pooling), NaN when not measured
   FitDataOptions options;
 };
 
@@ -197,6 +217,8 @@ inline constexpr std::array<double, 5> kCurveThetaDDeg = {5.0, 15.0, 30.0, 45.0,
 
 struct ResidualReport {
   NoiseSource noise_source = NoiseSource::None;  // what the noise floor comes from
+  std::uint32_t min_samples = 1;                 // FitData::min_samples
+  double sparkle_excess = NAN;                   // FitData::sparkle_excess
   RegionResidual total;
   std::array<RegionResidual, kRegionCount> regions;
   std::vector<FitCurve> curves;  // at kCurveThetaDDeg, those with at least 3 theta_h groups
@@ -204,7 +226,8 @@ struct ResidualReport {
   // theta_d bin over every phi_d (a fit point's samples at its mean coordinates; points
   // without statistics count 1), theta_h-major; all zero for an empty fit.
   std::vector<std::uint32_t> coverage;
-  // {"log_rms", "bins_used", "residuals", "noise_floor_log_rms", "noise_source", "regions": {...},
+  // {"log_rms", "bins_used", "residuals", "noise_floor_log_rms", "noise_source", "min_samples",
+  //  "sparkle_excess" (null when not measured), "regions": {...},
   //  "curves": [...], "coverage": {"theta_h_bins": 90, "theta_d_bins": 90, "cells": [[i, j, samples], ...]}}
   //  (coverage: the non-zero cells only)
   Json to_json() const;

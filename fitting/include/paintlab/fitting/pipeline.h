@@ -30,10 +30,9 @@ struct SharedFitOptions {
   std::uint64_t seed = 1;          // of the random starts
   int threads = 0;                 // 0 = all cores
   int max_iterations = 100;        // of the final solve
-  // FitDataOptions::min_samples. 16 for sessions: where a bin holds a few samples, a glint or
-  // its absence decides the log of the bin's mean (the medium flake lobe of the full demo came
-  // out 43-47 % low with one point per bin); tables without counts are never pooled.
-  std::uint32_t min_samples = 16;
+  // FitDataOptions::min_samples: 0 = auto (pooled to kSparklePooling samples when the table
+  // sparkles, a point per bin otherwise).
+  std::uint32_t min_samples = 0;
 };
 
 struct FitRequest {
