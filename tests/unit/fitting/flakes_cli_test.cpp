@@ -43,16 +43,21 @@ CliSession cli_session() {
   return c;
 }
 
+// `paintlab flakes` against the paint file, into the session's flakes.json.
+test::RunResult flakes_against_paint(const CliSession& c, const std::filesystem::path& out) {
+  return test::run_paintlab("flakes " + c.session.string() + c.calib + " --fit " + c.paint.string() + " --out " +
+                            out.string());
+}
+
 TEST(FlakesCli, WritesFlakesJsonAndRefusesBadInput) {
   namespace fs = std::filesystem;
   const CliSession c = cli_session();
   const auto& sim = c.sim;
-  const fs::path& paint = c.paint;
   const fs::path& session = c.session;
   const std::string& calib = c.calib;
   const fs::path out = sim->dir / "flakes.json";
   // Against the paint file, and against a fit made now.
-  auto r = test::run_paintlab("flakes " + session.string() + calib + " --fit " + paint.string() + " --out " + out.string());
+  auto r = flakes_against_paint(c, out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("21 images"));
   EXPECT_THAT(r.out, HasSubstr("instrument-style sparkle"));
@@ -118,7 +123,7 @@ TEST(FlakesCli, ExportsTheFlakesWithThePaintAndRendersThem) {
   const fs::path& session = c.session;
   const std::string& calib = c.calib;
   const fs::path out = sim->dir / "flakes.json";
-  auto r = test::run_paintlab("flakes " + session.string() + calib + " --fit " + paint.string() + " --out " + out.string());
+  auto r = flakes_against_paint(c, out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const FlakeStats s = flakes_from_json(read_json_file(out), out.string());
   // Export with the flakes measured against the fit made there, and with a flakes.json.
