@@ -24,8 +24,15 @@ find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d feature
 find_package(TBB REQUIRED)
 find_package(Ceres 2 REQUIRED)
 find_package(HDF5 REQUIRED COMPONENTS C)
-# LEMON (liblemon-dev): the network simplex of the flake colour transport (header-only parts).
+# LEMON (liblemon-dev): the network simplex of the flake colour transport (header-only parts)
+# and its LP interface, which Debian builds over GLPK (lemon/config.h: LEMON_DEFAULT_LP GLPK):
+# the cosine-lobe fits and the paint design. The shared library, because it carries its GLPK
+# dependency (libglpk.so.40); the static one named by lemonConfig.cmake would need GLPK's
+# development package for -lglpk.
 find_package(lemon REQUIRED CONFIG)
+find_library(PAINTLAB_LEMON_SHARED NAMES liblemon.so lemon REQUIRED)
+add_library(paintlab_lemon_lp INTERFACE)
+target_link_libraries(paintlab_lemon_lp INTERFACE ${PAINTLAB_LEMON_SHARED})
 pkg_check_modules(MODBUS REQUIRED IMPORTED_TARGET libmodbus>=3.1)
 pkg_check_modules(GPIOD REQUIRED IMPORTED_TARGET libgpiod>=1.6)
 if(GPIOD_VERSION VERSION_GREATER_EQUAL 2.0)
