@@ -1,9 +1,12 @@
 #include "paintlab/brdf/paint.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fmt/format.h>
+#include <numbers>
 #include <set>
+#include <toml++/toml.h>
 
 #include "paintlab/brdf/merl.h"
 #include "paintlab/core/error.h"
@@ -18,6 +21,7 @@ const char* const kCookTorrance = "cook-torrance";
 const char* const kAxf = "axf-carpaint";
 const char* const kPearl = "layered-pearlescent";
 const char* const kMerl = "merl";
+const char* const kCosine = "cosine-lobes";
 
 // The JSON twin of ConfigTable: the same reading functions, so one template parses both
 // formats with the same rules. Errors: "WHERE: key 'PATH': RULE".
@@ -84,6 +88,28 @@ class JsonTable {
   std::array<double, 3> triple(std::string_view key, Bounds b) const {
     auto v = numbers(key, 3, 3, b);
     return {v[0], v[1], v[2]};
+  }
+  // An array of [R, G, B] arrays (cosine-lobes' kg, kdd); values checked by the caller.
+  std::vector<std::array<double, 3>> triples(std::string_view key) const {
+    const Json& n = require(key);
+    if (!n.is_array()) fail(key, std::string("expected an array of [R, G, B] arrays, got ") + type_name(n));
+    std::vector<std::array<double, 3>> out;
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const Json& row = n[i];
+      if (!row.is_array())
+        fail(key, "element " + std::to_string(i) + ": expected an array [R, G, B], got " + type_name(row));
+      if (row.size() != 3)
+        fail(key, "element " + std::to_string(i) + ": expected 3 values [R, G, B], got " + std::to_string(row.size()));
+      std::array<double, 3> v{};
+      for (std::size_t c = 0; c < 3; ++c) {
+        if (!row[c].is_number())
+          fail(key, "element " + std::to_string(i) + ": expected a number at index " + std::to_string(c) + ", got " +
+                        type_name(row[c]));
+        v[c] = row[c].get<double>();
+      }
+      out.push_back(v);
+    }
+    return out;
   }
   std::vector<JsonTable> tables(std::string_view key, std::size_t min_count, std::size_t max_count) const {
     const Json& n = require(key);
@@ -212,6 +238,93 @@ AxfCarPaintParams parse_axf(const Table& t) {
   return p;
 }
 
+const char* toml_type_name(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::table: return "a table";
+    case toml::node_type::array: return "an array";
+    case toml::node_type::string: return "a string";
+    case toml::node_type::integer: return "an integer";
+    case toml::node_type::floating_point: return "a number";
+    case toml::node_type::boolean: return "a boolean";
+    default: return "a date or time";
+  }
+}
+
+// The TOML twin of JsonTable::triples: ConfigTable reads flat arrays only, so the nested
+// array is read from the parsed table itself (the key is marked as read, errors name its line).
+std::vector<std::array<double, 3>> triples(const ConfigTable& t, std::string_view key) {
+  if (!t.has(key)) t.fail(key, "required key is missing in the top level");
+  t.accept(key);
+  const toml::node& n = *t.raw().get(key);
+  const toml::array* rows = n.as_array();
+  if (!rows) t.fail(key, std::string("expected an array of [R, G, B] arrays, got ") + toml_type_name(n));
+  std::vector<std::array<double, 3>> out;
+  for (std::size_t i = 0; i < rows->size(); ++i) {
+    const toml::node& r = *rows->get(i);
+    const toml::array* row = r.as_array();
+    if (!row) t.fail(key, "element " + std::to_string(i) + ": expected an array [R, G, B], got " + toml_type_name(r));
+    if (row->size() != 3)
+      t.fail(key, "element " + std::to_string(i) + ": expected 3 values [R, G, B], got " + std::to_string(row->size()));
+    std::array<double, 3> v{};
+    for (std::size_t c = 0; c < 3; ++c) {
+      const toml::node& e = *row->get(c);
+      if (auto iv = e.as_integer()) v[c] = static_cast<double>(iv->get());
+      else if (auto fv = e.as_floating_point()) v[c] = fv->get();
+      else
+        t.fail(key, "element " + std::to_string(i) + ": expected a number at index " + std::to_string(c) + ", got " +
+                        toml_type_name(e));
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+std::vector<std::array<double, 3>> triples(const JsonTable& t, std::string_view key) { return t.triples(key); }
+
+// A cosine lobe of exponent E and weight w at the mirror direction reflects at most about
+// 2 pi w / (E + 1) of the light (the integral of (r.o)^E over the hemisphere): as for the other
+// models' weights, twice the light received is refused, so w <= (E + 1) / pi. A fixed bound
+// would either refuse a real clear coat (4 % at E = 4000 needs w ~ 25) or let 1e308 through.
+double max_lobe_weight(double exponent) { return (exponent + 1.0) / std::numbers::pi; }
+
+template <class Table>
+CosineLobeParams parse_cosine_lobes(const Table& t) {
+  CosineLobeParams p;
+  p.exponents = t.numbers("exponents", 1, static_cast<std::size_t>(kMaxCosineLobes),
+                          Bounds::closed(kMinLobeExponent, kMaxLobeExponent));
+  for (std::size_t i = 1; i < p.exponents.size(); ++i)
+    if (!(p.exponents[i] > p.exponents[i - 1]))
+      t.fail("exponents", fmt::format("element {}: {:g} not above element {} = {:g} (exponents increase)", i,
+                                      p.exponents[i], i - 1, p.exponents[i - 1]));
+  p.kd = rgb_of(t.triple("kd", kAlbedo));
+  const std::size_t n = p.exponents.size();
+  for (const char* key : {"kg", "kdd"}) {
+    const auto rows = triples(t, key);
+    if (rows.size() != n)
+      t.fail(key, fmt::format("{} entries for {} exponents (one [R, G, B] per exponent)", rows.size(), n));
+    std::vector<Rgb>& out = std::string_view(key) == "kg" ? p.kg : p.kdd;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double hi = max_lobe_weight(p.exponents[i]);
+      const std::string row = fmt::format("[{:g}, {:g}, {:g}]", rows[i][0], rows[i][1], rows[i][2]);
+      for (double v : rows[i]) {
+        if (!(std::isfinite(v) && v >= 0))
+          t.fail(key, fmt::format("element {}: {} must be finite and >= 0 (got {:g})", i, row, v));
+        if (v > hi)
+          t.fail(key, fmt::format("element {}: {} must be at most (E + 1) / pi = {:.4g} for exponent E = {:g}, or the "
+                                  "lobe reflects more than twice the light it receives (got {:g})",
+                                  i, row, hi, p.exponents[i], v));
+      }
+      out.push_back(rgb_of(rows[i]));
+    }
+  }
+  // The model's own rules, which the checks above imply; kept so that the file reader can
+  // never accept what CosineLobes itself calls invalid. Its problems start with the key.
+  if (const std::string problem = cosine_lobes_problem(p); !problem.empty()) {
+    const std::string key = problem.substr(0, problem.find_first_of("[:"));
+    t.fail(key, problem);
+  }
+  return p;
+}
+
 template <class Table>
 PearlescentParams parse_pearl(const Table& t) {
   PearlescentParams p;
@@ -249,6 +362,8 @@ PaintSpec parse_generic(const Table& t, const fs::path& base_dir, bool name_requ
   } else if (model == kPearl) {
     if (!t.has("pigment")) t.fail("pigment", "required table is missing (the flake pigment of the layered model)");
     s.params = parse_pearl(t);
+  } else if (model == kCosine) {
+    s.params = parse_cosine_lobes(t);
   } else {
     MerlParams p;
     p.table = t.string("table");
@@ -264,6 +379,11 @@ PaintSpec parse_generic(const Table& t, const fs::path& base_dir, bool name_requ
 
   if (t.has("flakes")) {
     if (model == kMerl) t.fail("flakes", "sparkle needs an analytic model; not allowed with model \"merl\"");
+    // The simulator's sparkle moves the energy of lobes the flakes carry into glints; cosine
+    // lobes are a fitted basis with no flake orientation behind them.
+    if (model == kCosine)
+      t.fail("flakes", "sparkle needs lobes that flakes carry (cook-torrance, axf-carpaint or layered-pearlescent); "
+                       "not allowed with model \"cosine-lobes\"");
     const Table f = *t.maybe_table("flakes");
     FlakeSpec fl;
     fl.density = f.number("density", Bounds{0.0, kMaxFlakeDensity, true, false});
@@ -324,7 +444,7 @@ Json rgb_json(const Rgb& c) { return Json::array({c[0], c[1], c[2]}); }
 }  // namespace
 
 const std::vector<std::string>& paint_models() {
-  static const std::vector<std::string> m{kCookTorrance, kAxf, kPearl, kMerl};
+  static const std::vector<std::string> m{kCookTorrance, kAxf, kPearl, kMerl, kCosine};
   return m;
 }
 
@@ -335,7 +455,11 @@ std::string PaintSpec::model() const {
         if constexpr (std::is_same_v<P, CookTorranceParams>) return kCookTorrance;
         else if constexpr (std::is_same_v<P, AxfCarPaintParams>) return kAxf;
         else if constexpr (std::is_same_v<P, PearlescentParams>) return kPearl;
-        else return kMerl;
+        else if constexpr (std::is_same_v<P, MerlParams>) return kMerl;
+        else {
+          static_assert(std::is_same_v<P, CosineLobeParams>, "a paint model without a name");
+          return kCosine;
+        }
       },
       params);
 }
@@ -399,6 +523,15 @@ std::string to_toml(const PaintSpec& spec) {
             "\nfilm_thickness_nm = " + num(p->film_thickness_nm) + "\ncore_ior = " + num(p->core_ior) + "\n";
   } else if (const auto* p = spec.merl()) {
     s += "table = " + toml_string(p->table) + "\n";
+  } else if (const auto* p = spec.cosine_lobes()) {
+    s += "exponents = [";
+    for (std::size_t i = 0; i < p->exponents.size(); ++i) s += (i ? ", " : "") + num(p->exponents[i]);
+    s += "]\nkd = " + rgb_str(p->kd) + "\n";
+    for (const auto& [key, rows] : {std::pair{"kg", &p->kg}, std::pair{"kdd", &p->kdd}}) {
+      s += std::string(key) + " = [\n";
+      for (const Rgb& c : *rows) s += "  " + rgb_str(c) + ",\n";
+      s += "]\n";
+    }
   }
   if (spec.flakes) {
     const FlakeSpec& f = *spec.flakes;
@@ -418,10 +551,14 @@ std::string to_toml(const PaintSpec& spec) {
 }
 
 PaintSpec seen_in_mono(PaintSpec p, const Rgb& w) {
+  auto project = [&](Rgb& rgb) { rgb = Rgb::Constant((w * rgb).sum()); };
   if (auto* ct = std::get_if<CookTorranceParams>(&p.params)) {
-    auto project = [&](Rgb& rgb) { rgb = Rgb::Constant((w * rgb).sum()); };
     project(ct->kd);
     for (CtLobe& l : ct->lobes) project(l.ks);
+  } else if (auto* cl = std::get_if<CosineLobeParams>(&p.params)) {
+    project(cl->kd);
+    for (Rgb& c : cl->kg) project(c);
+    for (Rgb& c : cl->kdd) project(c);
   }
   return p;
 }
@@ -458,6 +595,14 @@ Json to_json(const PaintSpec& spec) {
                     {"film_thickness_nm", p->film_thickness_nm}, {"core_ior", p->core_ior}};
   } else if (const auto* p = spec.merl()) {
     j["table"] = p->table;
+  } else if (const auto* p = spec.cosine_lobes()) {
+    j["exponents"] = p->exponents;
+    j["kd"] = rgb_json(p->kd);
+    Json kg = Json::array(), kdd = Json::array();
+    for (const Rgb& c : p->kg) kg.push_back(rgb_json(c));
+    for (const Rgb& c : p->kdd) kdd.push_back(rgb_json(c));
+    j["kg"] = kg;
+    j["kdd"] = kdd;
   }
   if (spec.flakes) {
     const FlakeSpec& f = *spec.flakes;
@@ -482,6 +627,7 @@ std::unique_ptr<Brdf> make_brdf(const PaintSpec& spec) {
   if (const auto* p = spec.cook_torrance()) return std::make_unique<CookTorrance>(p->kd, p->lobes);
   if (const auto* p = spec.axf_carpaint()) return std::make_unique<AxfCarPaint>(*p);
   if (const auto* p = spec.pearlescent()) return std::make_unique<LayeredPearlescent>(*p);
+  if (const auto* p = spec.cosine_lobes()) return std::make_unique<CosineLobes>(*p);
   const MerlParams& m = *spec.merl();
   return std::make_unique<MerlBrdf>(std::make_shared<const MerlTable>(read_merl(m.resolved)));
 }
@@ -514,6 +660,13 @@ std::string describe_paint(const PaintSpec& spec) {
                      p->film_thickness_nm, p->film_ior, p->core_ior);
   } else if (const auto* p = spec.merl()) {
     s += fmt::format("  table                 {}\n", p->resolved.string());
+  } else if (const auto* p = spec.cosine_lobes()) {
+    s += fmt::format("  kd (diffuse albedo)   {}\n", rgb(p->kd));
+    // Bounded by every list: describe_paint may be shown a spec that check_paint has not seen.
+    const std::size_t n = std::min({p->exponents.size(), p->kg.size(), p->kdd.size()});
+    for (std::size_t i = 0; i < n; ++i)
+      s += fmt::format("  lobe {:<2}               exponent {:<8.5g} kg {}  kdd {}\n", i + 1, p->exponents[i],
+                       rgb(p->kg[i]), rgb(p->kdd[i]));
   }
   if (spec.flakes) {
     const FlakeSpec& f = *spec.flakes;

@@ -27,8 +27,8 @@ using h5::Handle;
 using h5::Problems;
 using h5::Writer;
 
-// The conventions of format version 1, written into /conventions and checked word for
-// word by the validator (docs/axf-like.md explains each).
+// The conventions of format version 1 (and "cosine_lobes", version 5), written into
+// /conventions and checked word for word by the validator (docs/axf-like.md explains each).
 const std::vector<std::pair<std::string, std::string>> kConventions = {
     {"brdf_unit", "1/sr"},
     {"frame", "local shading frame, normal n = +z; i points to the light, o to the camera; angles in radians"},
@@ -59,7 +59,16 @@ const std::vector<std::pair<std::string, std::string>> kConventions = {
     {"cook_torrance",
      "f = kd / pi + sum_l ks_l F(r_l, h.o) D(m_l, theta_h) G / (pi (n.i)(n.o)) in air (Guenther et al. 2005, "
      "eq. 1); lobes broadest first as fitted; *_std are one standard deviation"},
+    // Version 5. The kg terms carry no (n.i) in f (n.i): the source's gloss lobes, a trap for a
+    // reader who expects every term of a BRDF to be multiplied by the cosine.
+    {"cosine_lobes",
+     "f(i, o) (n.i) = kd / pi (n.i) + sum_k kg_k (r.o)^E_k + (n.i) sum_k kdd_k (r.o)^E_k with r = 2 (n.i) n - i "
+     "the mirror direction of the light, (r.o) clamped at 0 and E_k = exponents[k] (increasing): the BRDF is "
+     "kd / pi + sum_k (kg_k / (n.i) + kdd_k) (r.o)^E_k in air; kd is an albedo, kg and kdd are in 1/sr"},
 };
+
+// The format version from which a convention is required (older files lack it).
+int convention_since(const std::string& name) { return name == "cosine_lobes" ? 5 : 1; }
 
 constexpr double kHalfPi = std::numbers::pi / 2;
 
@@ -167,6 +176,23 @@ void write_paint(hid_t root, const std::string& rp, const AxfPaint& paint, const
     };
     put("", ct.params.kd, ct.params.lobes);
     if (ct.stddev) put("_std", ct.stddev->kd, ct.stddev->lobes);
+  }
+
+  if (paint.cosine_lobes) {  // format version 5
+    const auto& cl = *paint.cosine_lobes;
+    const std::string gp = h5::join(rp, "cosine_lobes");
+    Handle g = w.create_group(root, "cosine_lobes", gp);
+    const auto n = static_cast<hsize_t>(cl.exponents.size());
+    w.attr_int(g.get(), "lobe_count", static_cast<std::int64_t>(n), gp);
+    w.doubles(g.get(), "exponents", cl.exponents, {n}, h5::join(gp, "exponents"));
+    w.doubles(g.get(), "kd", rgb_vec(cl.kd), {3}, h5::join(gp, "kd"));
+    auto rows = [](const std::vector<brdf::Rgb>& v) {
+      std::vector<double> out;
+      for (const auto& c : v) out.insert(out.end(), {c[0], c[1], c[2]});
+      return out;
+    };
+    w.doubles(g.get(), "kg", rows(cl.kg), {static_cast<hsize_t>(cl.kg.size()), 3}, h5::join(gp, "kg"));
+    w.doubles(g.get(), "kdd", rows(cl.kdd), {static_cast<hsize_t>(cl.kdd.size()), 3}, h5::join(gp, "kdd"));
   }
 
   if (paint.flakes) {
@@ -318,16 +344,17 @@ std::optional<DoubleArray> read_checked(hid_t loc, const std::string& name, cons
   return a;
 }
 
-// The dataset that sets a group's lobe count: shape [N] with 1 to 3 lobes, values in `r`;
-// the group's lobe_count attribute must agree. `*n` = N (0 when the shape is unreadable).
+// The dataset that sets a group's lobe count: shape [N] with 1 to `max_lobes` lobes, values
+// in `r`; the group's lobe_count attribute must agree. `*n` = N (0 when the shape is unreadable).
 std::optional<DoubleArray> read_lobe_count_dataset(hid_t g, const std::string& name, const std::string& gp,
-                                                   const Range& r, const Problems& p, hsize_t* n) {
+                                                   const Range& r, const Problems& p, hsize_t* n,
+                                                   hsize_t max_lobes = 3) {
   *n = 0;
   const std::string path = h5::join(gp, name);
   auto a = h5::read_doubles(g, name, path, p);
   if (a) {
-    if (a->dims.size() != 1 || a->dims[0] < 1 || a->dims[0] > 3) {
-      p.add(path, "wrong shape " + shape_text(a->dims) + ", expected [N] with 1 to 3 lobes");
+    if (a->dims.size() != 1 || a->dims[0] < 1 || a->dims[0] > max_lobes) {
+      p.add(path, fmt::format("wrong shape {}, expected [N] with 1 to {} lobes", shape_text(a->dims), max_lobes));
       a.reset();
     } else {
       *n = a->dims[0];
@@ -348,18 +375,26 @@ std::string check_conventions(hid_t root, const std::string& rp, std::optional<s
   Handle g = h5::open_group(root, "conventions", gp, p);
   if (!g) return colour_space;
   const bool v3 = version && *version >= 3;
+  // Without a readable version (a problem of its own) every convention is checked.
+  const std::int64_t rules = version ? *version : kAxfFormatVersion;
+  const auto versions = [](int since) {
+    return since == kAxfFormatVersion ? fmt::format("version {}", since)
+                                      : fmt::format("versions {} to {}", since, kAxfFormatVersion);
+  };
   for (const auto& [k, v] : kConventions) {
+    const int since = convention_since(k);
+    if (rules < since) continue;  // an older file lacks it; one that has it is not judged by it
     auto s = h5::read_attr_string(g.get(), k, gp, p);
     if (!s) continue;
     if (k == "values" && v3) {
       if (*s == axf_values_convention(colour::kLinearSrgb)) colour_space = colour::kLinearSrgb;
       else if (*s != axf_values_convention(colour::kCameraRgb))
-        p.add(h5::attr_path(gp, k), "states a colour space the format (versions 3 and 4) does not define (\"" + *s +
-                                        "\"); expected \"" + axf_values_convention(colour::kLinearSrgb) + "\" or \"" +
-                                        axf_values_convention(colour::kCameraRgb) + "\"");
+        p.add(h5::attr_path(gp, k), "states a colour space the format (" + versions(3) + ") does not define (\"" +
+                                        *s + "\"); expected \"" + axf_values_convention(colour::kLinearSrgb) +
+                                        "\" or \"" + axf_values_convention(colour::kCameraRgb) + "\"");
     } else if (*s != v) {
-      p.add(h5::attr_path(gp, k), "states a different convention than the format (versions 1 to 4) defines (\"" +
-                                      *s + "\"); expected \"" + v + "\"");
+      p.add(h5::attr_path(gp, k), "states a different convention than the format (" + versions(since) +
+                                      ") defines (\"" + *s + "\"); expected \"" + v + "\"");
     }
   }
   return colour_space;
@@ -517,6 +552,52 @@ std::optional<AxfCookTorrance> read_cook_torrance(hid_t root, const std::string&
   }
   if (!g.clean(p)) return std::nullopt;
   return ct;
+}
+
+std::optional<brdf::CosineLobeParams> read_cosine_lobes(hid_t root, const std::string& rp, const Problems& p) {
+  const SectionRead g = open_section(root, rp, "cosine_lobes", p);
+  if (!g) return std::nullopt;
+  const std::string& gp = g.path;
+  brdf::CosineLobeParams cl;
+  hsize_t n = 0;
+  const std::string ep = h5::join(gp, "exponents");
+  auto e = read_lobe_count_dataset(g.id(), "exponents", gp,
+                                   Range::closed(brdf::kMinLobeExponent, brdf::kMaxLobeExponent), p, &n,
+                                   static_cast<hsize_t>(brdf::kMaxCosineLobes));
+  if (e) {
+    for (hsize_t k = 1; k < n; ++k)
+      if (!(e->values[k] > e->values[k - 1])) {
+        p.add(ep, fmt::format("value {:g} at index {} is not above the one before ({:g}): exponents increase",
+                              e->values[k], k, e->values[k - 1]));
+        e.reset();
+        break;
+      }
+  }
+  auto kd = read_checked(g.id(), "kd", gp, {3}, Range::non_negative(), p);
+  std::optional<DoubleArray> kg, kdd;
+  if (n > 0) {
+    const std::string why = " (one row per exponent)";
+    kg = read_checked(g.id(), "kg", gp, {n, 3}, Range::non_negative(), p, why);
+    kdd = read_checked(g.id(), "kdd", gp, {n, 3}, Range::non_negative(), p, why);
+  } else {
+    h5::read_doubles(g.id(), "kg", h5::join(gp, "kg"), p);
+    h5::read_doubles(g.id(), "kdd", h5::join(gp, "kdd"), p);
+  }
+  if (kd) cl.kd = brdf::Rgb(kd->values[0], kd->values[1], kd->values[2]);
+  if (e && kg && kdd) {
+    cl.exponents = e->values;
+    for (hsize_t k = 0; k < n; ++k) {
+      cl.kg.emplace_back(kg->values[3 * k], kg->values[3 * k + 1], kg->values[3 * k + 2]);
+      cl.kdd.emplace_back(kdd->values[3 * k], kdd->values[3 * k + 1], kdd->values[3 * k + 2]);
+    }
+  }
+  if (!g.clean(p)) return std::nullopt;
+  // The checks above are the model's rules; should they ever differ, the model's own wins.
+  if (const std::string problem = brdf::cosine_lobes_problem(cl); !problem.empty()) {
+    p.add(gp, problem);
+    return std::nullopt;
+  }
+  return cl;
 }
 
 std::optional<brdf::FlakeSpec> read_flakes(hid_t root, const std::string& rp, std::size_t lobe_count,
@@ -766,19 +847,29 @@ AxfPaint read_paint(hid_t root, const std::string& rp, const Problems& problems,
   }
   if (auto m = h5::read_attr_string(root, "model", rp, p)) {
     paint.model = *m;
-    if (*m != "axf-carpaint" && *m != "cook-torrance")
-      p.add(h5::attr_path(rp, "model"), "'" + *m + "' is not 'axf-carpaint' or 'cook-torrance'");
+    if (*m != "axf-carpaint" && *m != "cook-torrance" && *m != "cosine-lobes")
+      p.add(h5::attr_path(rp, "model"), "'" + *m + "' is not 'axf-carpaint', 'cook-torrance' or 'cosine-lobes'");
+    else if (*m == "cosine-lobes" && version && *version < 5)
+      p.add(h5::attr_path(rp, "model"), fmt::format("'cosine-lobes' is a model of format version 5, not {}", *version));
   }
   paint.colour_space = check_conventions(root, rp, version, p);
   const bool need_carpaint = paint.model == "axf-carpaint";
   const bool need_ct = paint.model == "cook-torrance";
+  const bool need_cl = paint.model == "cosine-lobes";
   auto present = [&](const char* name) { return h5::exists(root, name, h5::join(rp, name), p); };
   if (need_carpaint || present("carpaint")) paint.carpaint = read_carpaint(root, rp, p, &paint.carpaint_stddev);
   if (need_ct || present("cook_torrance")) paint.cook_torrance = read_cook_torrance(root, rp, p);
+  // Files before version 5 have no /cosine_lobes, and a group of that name in one is not ours.
+  if (need_cl || (version && *version >= 5 && present("cosine_lobes")))
+    paint.cosine_lobes = read_cosine_lobes(root, rp, p);
   if (present("flakes")) {
     std::size_t lobes = 0;
     if (paint.model == "axf-carpaint" && paint.carpaint) lobes = paint.carpaint->lobes.size();
     if (paint.model == "cook-torrance" && paint.cook_torrance) lobes = paint.cook_torrance->params.lobes.size();
+    // The simulator's flakes carry lobes of the model; cosine lobes are none of those (and a
+    // cosine-lobes paint file cannot have [flakes]). Read all the same: the checksum covers them.
+    if (need_cl)
+      p.add(h5::join(rp, "flakes"), "a cosine-lobes paint has no lobes for flakes to carry (paint-files.md \"Sparkle\")");
     paint.flakes = read_flakes(root, rp, lobes, p);
   }
   if (present("flake_stats")) paint.flake_stats = read_flake_stats(root, rp, p);
@@ -845,6 +936,7 @@ AxfPaint with_defaults(AxfPaint paint) {
 }  // namespace
 
 const std::vector<std::pair<std::string, std::string>>& axf_conventions() { return kConventions; }
+int axf_convention_since(const std::string& name) { return convention_since(name); }
 
 std::string axf_values_convention(const std::string& colour_space) {
   return colour_space + ": no gamma, no sRGB transfer curve, no tone mapping";
@@ -866,6 +958,9 @@ brdf::PaintSpec AxfPaint::paint_spec() const {
   if (model == "axf-carpaint") {
     if (!carpaint) throw DataError("paint '" + name + "': model axf-carpaint but no /carpaint");
     s.params = *carpaint;
+  } else if (model == "cosine-lobes") {
+    if (!cosine_lobes) throw DataError("paint '" + name + "': model cosine-lobes but no /cosine_lobes");
+    s.params = *cosine_lobes;
   } else {
     if (!cook_torrance) throw DataError("paint '" + name + "': model cook-torrance but no /cook_torrance");
     s.params = cook_torrance->params;
@@ -882,9 +977,12 @@ AxfPaint axf_from_paint(const brdf::PaintSpec& spec) {
     a.cook_torrance = AxfCookTorrance{*ct, std::nullopt};
   } else if (const auto* cp = spec.axf_carpaint()) {
     a.carpaint = *cp;
+  } else if (const auto* cl = spec.cosine_lobes()) {
+    a.cosine_lobes = *cl;
   } else {
     throw DataError("paint '" + spec.name + "': " + spec.model() +
-                    " paints have no AxF-like form (only cook-torrance and axf-carpaint): measure and fit it");
+                    " paints have no AxF-like form (only cook-torrance, axf-carpaint and cosine-lobes): measure and "
+                    "fit it");
   }
   a.flakes = spec.flakes;
   a.colour_space = colour::kLinearSrgb;
@@ -983,6 +1081,10 @@ AxfPaint merge_axf(AxfPaint base, const AxfPaint& other) {
   if (other.cook_torrance) {
     if (base.cook_torrance) throw DataError("both paints hold a Cook-Torrance form: give one fit per model");
     base.cook_torrance = other.cook_torrance;
+  }
+  if (other.cosine_lobes) {
+    if (base.cosine_lobes) throw DataError("both paints hold cosine-lobe weights: give them once");
+    base.cosine_lobes = other.cosine_lobes;
   }
   if (!base.flakes) base.flakes = other.flakes;
   if (!base.flake_stats) {
@@ -1176,6 +1278,15 @@ std::string describe_axf(const AxfPaint& a) {
       s += fmt::format("    lobe {}: ks [{}, {}, {}]  m {}  r {}\n", k + 1, pm(l.ks[0], e.ks[0]), pm(l.ks[1], e.ks[1]),
                        pm(l.ks[2], e.ks[2]), pm(l.m, e.m), pm(l.r, e.r));
     }
+  }
+  if (a.cosine_lobes && !a.cosine_lobes->exponents.empty()) {
+    const auto& cl = *a.cosine_lobes;
+    auto rgb = [](const brdf::Rgb& c) { return fmt::format("[{:.4g}, {:.4g}, {:.4g}]", c[0], c[1], c[2]); };
+    s += fmt::format("  cosine lobes{}: {} exponent{} {:.5g} .. {:.5g}; kd {}\n",
+                     a.model == "cosine-lobes" ? "" : " (an approximation of the paint)", cl.exponents.size(),
+                     cl.exponents.size() == 1 ? "" : "s", cl.exponents.front(), cl.exponents.back(), rgb(cl.kd));
+    for (std::size_t k = 0; k < std::min({cl.exponents.size(), cl.kg.size(), cl.kdd.size()}); ++k)
+      s += fmt::format("    exponent {:.5g}: kg {}  kdd {}\n", cl.exponents[k], rgb(cl.kg[k]), rgb(cl.kdd[k]));
   }
   if (a.flakes)
     s += fmt::format("  flakes: density {:.4g}, roughness {:.4g}, lifetime {:.3g} deg, {} lobe(s)\n", a.flakes->density,

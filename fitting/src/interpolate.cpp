@@ -203,6 +203,13 @@ InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b) {
     throw DataError(fmt::format("interpolation of {}: their values are in different colour spaces ({} and {}); "
                                 "measure both with a colour calibration",
                                 pair, a.colour_space, b.colour_space));
+  // A cosine-lobes paint is its basis weights only: it has no parameters that interpolate as
+  // Golla and Klein's do (and would need the same exponents); say so rather than "no form in common".
+  for (const AxfPaint* x : {&a, &b})
+    if (x->model == "cosine-lobes")
+      throw DataError(fmt::format("interpolation of {}: '{}' is a cosine-lobes paint; interpolation takes "
+                                  "cook-torrance or axf-carpaint forms",
+                                  pair, x->name));
   const bool ct = a.cook_torrance && b.cook_torrance, cp = a.carpaint && b.carpaint;
   if (!ct && !cp)
     throw DataError(fmt::format("interpolation of {}: no model form in common ({} and {}); export both as the same "
@@ -298,6 +305,11 @@ RealisedPaint realise(const InterpolatablePaint& m, double wa, double wb, bool f
   }
   p.provenance.source = fmt::format("interpolation: {} {}, {} {}", m.a.name, weight_text(wa), m.b.name, weight_text(wb));
   r.notes = m.notes;
+  // The parents' cosine-lobe weights approximate the parents; the colour table interpolates in
+  // CIELAB, so their blend would not approximate the result. Left out, and said.
+  if (m.a.cosine_lobes || m.b.cosine_lobes)
+    r.notes.push_back("the parents' cosine-lobe weights (/cosine_lobes) are left out: they approximate the parents, "
+                      "not the interpolated paint");
   return r;
 }
 

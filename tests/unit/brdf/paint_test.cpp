@@ -2,6 +2,9 @@
 // message, the shipped paints.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <numbers>
+
 #include "paintlab/brdf/merl.h"
 #include "paintlab/brdf/paint.h"
 #include "paintlab/core/error.h"
@@ -26,6 +29,23 @@ r = 0.04
 [flakes]
 density = 0.5
 roughness = 0.15
+)";
+
+// docs/paint-files.md's cosine-lobes example: three lobes, a clear coat in the sharpest.
+const char* const kGoodCosine = R"(name = "designed-red"
+model = "cosine-lobes"
+exponents = [2.1, 40, 4100]
+kd = [0.2, 0.03, 0.02]
+kg = [
+  [0.01, 0.002, 0.001],
+  [0.3, 0.1, 0.05],
+  [20.0, 20.0, 20.0],
+]
+kdd = [
+  [0.05, 0.01, 0.005],
+  [0.4, 0.05, 0.02],
+  [0, 0, 0],
+]
 )";
 
 std::string config_error(const std::string& text, const std::string& file = "p.toml") {
@@ -109,6 +129,7 @@ TEST(PaintFile, TomlRoundTripForEveryModel) {
   std::vector<PaintSpec> specs;
   specs.push_back(parse_paint(ConfigTable::parse_string(kGoodCt, "p.toml")));
   specs.push_back(example_axf_spec());
+  specs.push_back(parse_paint(ConfigTable::parse_string(kGoodCosine, "c.toml")));
   for (const char* n : {"silver-metallic", "solid-blue", "pearlescent"})
     specs.push_back(load_paint_file(test::source_dir() / "paints" / (std::string(n) + ".toml")));
   PaintSpec merl;
@@ -139,7 +160,7 @@ TEST(PaintFile, JsonRoundTripAndContractShape) {
   EXPECT_EQ(j["lobes"][1]["m"], 0.013);
   EXPECT_EQ(j["lobes"][0]["r"], 0.9);
   EXPECT_EQ(j["flakes"]["lobes"], Json::parse("[1]"));
-  for (const PaintSpec& s : {ct, example_axf_spec(),
+  for (const PaintSpec& s : {ct, example_axf_spec(), parse_paint(ConfigTable::parse_string(kGoodCosine, "c.toml")),
                              load_paint_file(test::source_dir() / "paints/pearlescent.toml")}) {
     const Json js = Json::parse(to_json(s).dump());  // through text
     EXPECT_EQ(paint_from_json(js, "x.json"), s);
@@ -321,4 +342,141 @@ TEST(PaintFile, MerlPaintLoadsItsTable) {
   const auto brdf = make_brdf(load_paint_file(d / "w.toml"));
   EXPECT_EQ(brdf->model(), "merl");
   EXPECT_THAT(brdf->eval(Vec3(0.5, 0, 0.866), Vec3(-0.5, 0, 0.866)), test::RgbNear(Rgb(0.1, 0.2, 0.3), 1e-12));
+}
+
+// ---- cosine-lobes ----
+
+TEST(PaintFile, CosineLobesParseAndRoundTripThroughTomlAndJson) {
+  const PaintSpec s = parse_paint(ConfigTable::parse_string(kGoodCosine, "c.toml"));
+  EXPECT_EQ(s.model(), "cosine-lobes");
+  const CosineLobeParams* p = s.cosine_lobes();
+  ASSERT_NE(p, nullptr);
+  EXPECT_EQ(p->exponents, (std::vector<double>{2.1, 40, 4100}));
+  EXPECT_THAT(p->kd, test::RgbNear(Rgb(0.2, 0.03, 0.02), 0));
+  ASSERT_EQ(p->kg.size(), 3u);
+  ASSERT_EQ(p->kdd.size(), 3u);
+  EXPECT_THAT(p->kg[1], test::RgbNear(Rgb(0.3, 0.1, 0.05), 0));
+  EXPECT_THAT(p->kdd[0], test::RgbNear(Rgb(0.05, 0.01, 0.005), 0));
+  EXPECT_THAT(p->kdd[2], test::RgbNear(Rgb(0, 0, 0), 0));
+
+  // Values that print with many digits come back bit for bit.
+  PaintSpec odd = s;
+  auto& q = std::get<CosineLobeParams>(odd.params);
+  q.exponents[1] = 40.0 / 3.0;
+  q.kg[1] = Rgb(0.1 + 0.2, 1.0 / 7.0, 2e-17);
+  const std::string text = to_toml(odd);
+  const PaintSpec back = parse_paint(ConfigTable::parse_string(text, "rt.toml"));
+  EXPECT_EQ(back, odd) << text;
+  EXPECT_EQ(to_toml(back), text);
+
+  const Json j = Json::parse(to_json(odd).dump());
+  EXPECT_EQ(j["model"], "cosine-lobes");
+  EXPECT_EQ(j["exponents"].size(), 3u);
+  EXPECT_EQ(j["kg"][1][0], 0.1 + 0.2);
+  EXPECT_EQ(j["kdd"][1], Json::parse("[0.4, 0.05, 0.02]"));
+  EXPECT_EQ(paint_from_json(j, "x.json"), odd);
+  EXPECT_NO_THROW(check_paint(odd));
+
+  const std::string text_of_describe = describe_paint(s);
+  EXPECT_THAT(text_of_describe, HasSubstr("model cosine-lobes"));
+  EXPECT_THAT(text_of_describe, HasSubstr("exponent 4100"));
+}
+
+// f(wi, wo) = kd / pi + sum_i (kg_i / (n.wi) + kdd_i) (r.wo)_+^E_i with r = 2 (n.wi) n - wi,
+// computed here from the formula, not from the model's code.
+TEST(PaintFile, CosineLobesPaintEvaluatesTheFormula) {
+  const PaintSpec s = parse_paint(ConfigTable::parse_string(kGoodCosine, "c.toml"));
+  const auto f = make_brdf(s);
+  EXPECT_EQ(f->model(), "cosine-lobes");
+  const Vec3 n(0, 0, 1);
+  const Rgb kd(0.2, 0.03, 0.02);
+  const std::vector<double> e{2.1, 40, 4100};
+  const std::vector<Rgb> kg{Rgb(0.01, 0.002, 0.001), Rgb(0.3, 0.1, 0.05), Rgb(20, 20, 20)};
+  const std::vector<Rgb> kdd{Rgb(0.05, 0.01, 0.005), Rgb(0.4, 0.05, 0.02), Rgb(0, 0, 0)};
+  // Near the mirror direction (all three lobes count) and 50 deg away from it (the sharp ones
+  // vanish); then behind the mirror direction, where only kd / pi is left.
+  const std::vector<std::pair<Vec3, Vec3>> pairs = {
+      {Vec3(0.3, 0.1, 0.9).normalized(), Vec3(-0.3, -0.09, 0.91).normalized()},
+      {Vec3(0.5, 0.0, 0.8).normalized(), Vec3(0.2, 0.6, 0.7).normalized()},
+      {Vec3(0.9, 0.0, 0.2).normalized(), Vec3(0.9, 0.1, 0.2).normalized()}};
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const auto& [wi, wo] = pairs[k];
+    const Vec3 r = 2 * n.dot(wi) * n - wi;
+    const double rv = r.dot(wo);
+    Rgb expected = kd / std::numbers::pi;
+    for (std::size_t i = 0; i < e.size(); ++i)
+      if (rv > 0) expected += (kg[i] / n.dot(wi) + kdd[i]) * std::pow(rv, e[i]);
+    if (k < 2) {
+      EXPECT_GT(rv, 0.0) << k;
+    } else {
+      EXPECT_LT(rv, 0.0);
+    }
+    EXPECT_THAT(f->eval(wi, wo), test::RgbNear(expected, 1e-12)) << k;
+  }
+  EXPECT_GT(f->eval(pairs[0].first, pairs[0].second)[0], 1.0);  // the clear coat's lobe is in
+}
+
+TEST(PaintFile, CosineLobesSeenInMonoWeighsEveryWeight) {
+  const PaintSpec s = parse_paint(ConfigTable::parse_string(kGoodCosine, "c.toml"));
+  const Rgb w(0.25, 0.5, 0.25);
+  const PaintSpec mono = seen_in_mono(s, w);
+  const auto& a = *s.cosine_lobes();
+  const auto& m = *mono.cosine_lobes();
+  EXPECT_EQ(m.exponents, a.exponents);
+  EXPECT_THAT(m.kd, test::RgbNear(Rgb::Constant((w * a.kd).sum()), 1e-15));
+  for (std::size_t i = 0; i < a.exponents.size(); ++i) {
+    EXPECT_THAT(m.kg[i], test::RgbNear(Rgb::Constant((w * a.kg[i]).sum()), 1e-15)) << i;
+    EXPECT_THAT(m.kdd[i], test::RgbNear(Rgb::Constant((w * a.kdd[i]).sum()), 1e-15)) << i;
+  }
+}
+
+TEST(PaintFile, BadCosineLobesFilesNameTheKey) {
+  const std::string good = kGoodCosine;
+  EXPECT_EQ(config_error(good), "no error");
+  // One kg per exponent.
+  EXPECT_THAT(config_error(replace(good, "  [0.3, 0.1, 0.05],\n", "")),
+              HasSubstr("p.toml:5: key 'kg': 2 entries for 3 exponents"));
+  EXPECT_THAT(config_error(replace(good, "[0.3, 0.1, 0.05]", "[0.3, 0.1]")),
+              HasSubstr("p.toml:5: key 'kg': element 1: expected 3 values [R, G, B], got 2"));
+  EXPECT_THAT(config_error(replace(good, "kg = [", "kg = 3\nkgx = [")),
+              HasSubstr("p.toml:5: key 'kg': expected an array of [R, G, B] arrays, got an integer"));
+  // Weights >= 0 and at most (E + 1) / pi.
+  EXPECT_THAT(config_error(replace(good, "[0.4, 0.05, 0.02]", "[0.4, -0.05, 0.02]")),
+              HasSubstr("p.toml:10: key 'kdd': element 1: [0.4, -0.05, 0.02] must be finite and >= 0 (got -0.05)"));
+  EXPECT_THAT(config_error(replace(good, "[0.3, 0.1, 0.05]", "[0.3, 14, 0.05]")),
+              HasSubstr("p.toml:5: key 'kg': element 1: [0.3, 14, 0.05] must be at most (E + 1) / pi = 13.05 for "
+                        "exponent E = 40"));
+  EXPECT_THAT(config_error(replace(good, "kd = [0.2, 0.03, 0.02]", "kd = [0.2, 0.03, 2.5]")),
+              HasSubstr("p.toml:4: key 'kd': element 2 must be in [0, 2] (got 2.5)"));
+  // Exponents: increasing, in [0.5, 1e6], 1 to 11 of them.
+  EXPECT_THAT(config_error(replace(good, "[2.1, 40, 4100]", "[2.1, 4100, 40]")),
+              HasSubstr("p.toml:3: key 'exponents': element 2: 40 not above element 1 = 4100 (exponents increase)"));
+  EXPECT_THAT(config_error(replace(good, "[2.1, 40, 4100]", "[2.1, 2.1, 4100]")),
+              HasSubstr("key 'exponents': element 1: 2.1 not above element 0 = 2.1"));
+  EXPECT_THAT(config_error(replace(good, "[2.1, 40, 4100]", "[0.1, 40, 4100]")),
+              HasSubstr("p.toml:3: key 'exponents': element 0 must be in [0.5, 1e+06] (got 0.1)"));
+  EXPECT_THAT(config_error(replace(good, "[2.1, 40, 4100]", "[1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]")),
+              HasSubstr("key 'exponents': expected 1..11 values, got 12"));
+  EXPECT_THAT(config_error(replace(good, "exponents = [2.1, 40, 4100]\n", "")),
+              HasSubstr("key 'exponents': required key is missing"));
+  // No sparkle: nothing in the model for flakes to carry.
+  EXPECT_THAT(config_error(good + "[flakes]\ndensity = 0.5\nroughness = 0.15\n"),
+              HasSubstr("p.toml:15: key 'flakes': sparkle needs lobes that flakes carry"));
+  EXPECT_THAT(config_error(good + "[flakes]\ndensity = 0.5\nroughness = 0.15\n"),
+              HasSubstr("not allowed with model \"cosine-lobes\""));
+  // The JSON reader and check_paint apply the same rules.
+  Json j = to_json(parse_paint(ConfigTable::parse_string(good, "c.toml")));
+  Json bad = j;
+  bad["kdd"].erase(0);
+  EXPECT_THAT(data_error(bad), HasSubstr("summary.json: key 'kdd': 2 entries for 3 exponents"));
+  bad = j;
+  bad["exponents"] = Json::array({2.1, 4100, 40});
+  EXPECT_THAT(data_error(bad), HasSubstr("summary.json: key 'exponents': element 2: 40 not above element 1 = 4100"));
+  bad = j;
+  bad["flakes"] = {{"density", 0.5}, {"roughness", 0.15}};
+  EXPECT_THAT(data_error(bad), HasSubstr("summary.json: key 'flakes': sparkle needs lobes that flakes carry"));
+  PaintSpec s = parse_paint(ConfigTable::parse_string(good, "c.toml"));
+  std::get<CosineLobeParams>(s.params).kdd[1][2] = -1e-3;
+  EXPECT_THAT(test::error_message<DataError>([&] { check_paint(s); }),
+              HasSubstr("paint 'designed-red': key 'kdd': element 1: [0.4, 0.05, -0.001] must be finite and >= 0"));
 }

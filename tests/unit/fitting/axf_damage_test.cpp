@@ -581,8 +581,8 @@ TEST(AxfDamage, Version2FilesCarryChecksums) {
   }
   const AxfValidation v = validate_axf_file(file);
   EXPECT_TRUE(v.ok());
-  EXPECT_EQ(v.format_version, 4);
-  EXPECT_EQ(kAxfFormatVersion, 4);
+  EXPECT_EQ(v.format_version, 5);
+  EXPECT_EQ(kAxfFormatVersion, 5);
 }
 
 TEST(AxfDamage, ContentChecksumIsTheDocumentedOneOverEveryValue) {
@@ -592,10 +592,62 @@ TEST(AxfDamage, ContentChecksumIsTheDocumentedOneOverEveryValue) {
   int objects = 0;
   const std::string expected = content_sha256_of(file, &objects);
   EXPECT_EQ(root_string_attr(file, "content_sha256"), expected);
-  // Every value of the file but the checksum itself: 4 root and 12 convention attributes,
+  // Every value of the file but the checksum itself: 4 root and 13 convention attributes,
   // car paint 1 + 14 (attribute + datasets), Cook-Torrance 1 + 8, flakes 4, fit quality
   // 2 + 2, provenance 7 + 2.
-  EXPECT_EQ(objects, 57);
+  EXPECT_EQ(objects, 58);
+}
+
+// Files of versions 1 to 4 read as before: a version-4 file has no "cosine_lobes" convention
+// (version 5 added it) and is valid without it; model "cosine-lobes" is refused in it.
+TEST(AxfDamage, Version4FilesReadAsBefore) {
+  test::TempDir tmp;
+  const fs::path v5 = tmp / "v5.axf.h5", v4 = tmp / "v4.axf.h5";
+  write_axf_file(v5, small_paint());
+  fs::copy_file(v5, v4);
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  // Rewrites a root attribute in place (its type and size stay).
+  auto set_root_attr = [](const fs::path& file, const char* name, const void* value) {
+    Id f(H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+    Id root(H5Gopen2(f.id, "/", H5P_DEFAULT), H5Gclose);
+    Id a(H5Aopen(root.id, name, H5P_DEFAULT), H5Aclose);
+    Id t(H5Aget_type(a.id), H5Tclose);
+    Id mem(H5Tget_class(t.id) == H5T_INTEGER ? H5Tcopy(H5T_NATIVE_INT64) : H5Tcopy(t.id), H5Tclose);
+    return H5Awrite(a.id, mem.id, value) >= 0;
+  };
+  // What a version-4 writer wrote: no "cosine_lobes" convention, the checksum over the rest.
+  auto make_version4 = [&](const fs::path& file) {
+    const std::int64_t four = 4;
+    if (!set_root_attr(file, "format_version", &four)) return false;
+    {
+      Id f(H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+      Id conventions(H5Gopen2(f.id, "/conventions", H5P_DEFAULT), H5Gclose);
+      if (H5Adelete(conventions.id, "cosine_lobes") < 0) return false;
+    }
+    int objects = 0;
+    const std::string sum = content_sha256_of(file, &objects);
+    return objects > 0 && set_root_attr(file, "content_sha256", sum.data());
+  };
+  ASSERT_TRUE(make_version4(v4));
+  const AxfValidation v = validate_axf_file(v4);
+  EXPECT_TRUE(v.ok()) << (v.problems.empty() ? "" : v.problems.front());
+  EXPECT_EQ(v.format_version, 4);
+  EXPECT_EQ(read_axf_file(v4), read_axf_file(v5));
+
+  // A cosine-lobes paint in a file that says version 4 (checksum made to match): the model
+  // is of version 5.
+  AxfPaint cl;
+  cl.name = "designed";
+  cl.model = "cosine-lobes";
+  cl.cosine_lobes = brdf::CosineLobeParams{{2, 50}, brdf::Rgb(0.1, 0.1, 0.1), {brdf::Rgb(0, 0, 0), brdf::Rgb(1, 1, 1)},
+                                           {brdf::Rgb(0.1, 0.1, 0.1), brdf::Rgb(0, 0, 0)}};
+  const fs::path c4 = tmp / "c4.axf.h5";
+  write_axf_file(c4, cl);
+  ASSERT_TRUE(make_version4(c4));
+  const AxfValidation cv = validate_axf_file(c4);
+  ASSERT_EQ(cv.problems.size(), 1u) << (cv.problems.empty() ? "" : cv.problems.front());
+  EXPECT_THAT(cv.problems.front(),
+              ::testing::HasSubstr("/ attribute 'model': 'cosine-lobes' is a model of format version 5, not 4"));
 }
 
 TEST(AxfDamage, AnEditThatHdf5AcceptsFailsTheContentChecksum) {

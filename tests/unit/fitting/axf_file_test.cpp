@@ -119,6 +119,31 @@ AxfPaint full_paint() {
   return p;
 }
 
+// Four cosine lobes (format version 5), a clear coat in the sharpest.
+brdf::CosineLobeParams sample_cosine_lobes() {
+  brdf::CosineLobeParams cl;
+  cl.exponents = {2.1, 15.5, 120, 4100};
+  cl.kd = brdf::Rgb(0.03, 0.032, 0.035);
+  cl.kg = {brdf::Rgb(0.001, 0.001, 0.0012), brdf::Rgb(0.02, 0.021, 0.023), brdf::Rgb(0.3, 0.31, 0.33),
+           brdf::Rgb(25, 25, 25)};
+  cl.kdd = {brdf::Rgb(0.02, 0.021, 0.024), brdf::Rgb(0.1, 0.11, 1.0 / 3.0), brdf::Rgb(0.5, 0.5, 0.52),
+            brdf::Rgb(0, 0, 0)};
+  return cl;
+}
+
+// A paint that is only cosine-lobe weights (as paintlab design writes one).
+AxfPaint cosine_lobes_paint() {
+  AxfPaint p;
+  p.name = "designed.02";
+  p.model = "cosine-lobes";
+  p.colour_space = colour::kLinearSrgb;
+  p.cosine_lobes = sample_cosine_lobes();
+  p.provenance.exported_utc = "2026-11-21T10:00:00Z";
+  p.provenance.software_version = "0.1.0+gtest";
+  p.provenance.source = "targets.toml";
+  return p;
+}
+
 AxfPaint ct_only_paint() {
   AxfPaint p;
   p.name = "fit-only";
@@ -334,6 +359,10 @@ TEST(AxfFile, ConventionsAreWrittenAndStateTheTraps) {
   EXPECT_THAT(text("values"), HasSubstr("no gamma"));
   EXPECT_THAT(text("colour_table_domain"), HasSubstr("theta_ibar <= pi/2 - theta_hbar"));
   EXPECT_THAT(text("diffuse"), HasSubstr("diffuse / pi"));
+  // Version 5: the cosine lobes, whose kg terms carry no (n.i); required from version 5 on.
+  EXPECT_THAT(text("cosine_lobes"), HasSubstr("sum_k kg_k (r.o)^E_k + (n.i) sum_k kdd_k (r.o)^E_k"));
+  EXPECT_EQ(axf_convention_since("cosine_lobes"), 5);
+  EXPECT_EQ(axf_convention_since("beckmann_d"), 1);
 }
 
 TEST(AxfFile, WriterRefusesABadPaintAndLeavesTheOldFile) {
@@ -430,16 +459,16 @@ TEST(AxfFile, ValidatorNamesTheFieldOfEveryDamage) {
          H5Gclose(g);
        },
        "/conventions attribute 'colour_table_domain': missing"},
-      {"newer version", [](hid_t f) { set_int_attr(f, "/", "format_version", 5); },
-       "/ attribute 'format_version': 5 is newer than this software reads (4)"},
+      {"newer version", [](hid_t f) { set_int_attr(f, "/", "format_version", 6); },
+       "/ attribute 'format_version': 6 is newer than this software reads (5)"},
       {"unknown colour space", [](hid_t f) { set_string_attr(f, "/conventions", "values", "linear Adobe RGB: no gamma"); },
-       "/conventions attribute 'values': states a colour space the format (versions 3 and 4) does not define"},
+       "/conventions attribute 'values': states a colour space the format (versions 3 to 5) does not define"},
       {"sRGB in a version-2 file",
        [](hid_t f) {
          set_int_attr(f, "/", "format_version", 2);
          set_string_attr(f, "/conventions", "values", axf_values_convention(colour::kLinearSrgb));
        },
-       "/conventions attribute 'values': states a different convention than the format (versions 1 to 4) defines"},
+       "/conventions attribute 'values': states a different convention than the format (versions 1 to 5) defines"},
       {"foreign format", [](hid_t f) { set_string_attr(f, "/", "format", "something-else"); },
        "/ attribute 'format': 'something-else' is not 'paintlab-axf-like'"},
       {"bad model", [](hid_t f) { set_string_attr(f, "/", "model", "phong"); }, "/ attribute 'model': 'phong'"},
@@ -624,7 +653,7 @@ TEST(AxfCli, ValidateExitCodesAndMessages) {
   write_axf_file(good, full_paint());
   auto r = test::run_paintlab("axf validate " + good.string());
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 4)"));
+  EXPECT_THAT(r.out, HasSubstr("valid (AxF-like paint 'silver-fit.01', format version 5)"));
 
   const fs::path bad = tmp / "bad.axf.h5";
   fs::copy_file(good, bad);
@@ -697,4 +726,140 @@ TEST(AxfCli, ExportPaintAndFitFiles) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("paint_name"));
   EXPECT_FALSE(fs::exists(tmp / "n.axf.h5"));
+}
+
+// ---- /cosine_lobes (format version 5) ----
+
+TEST(AxfFile, CosineLobesBesideACarPaintAndAsThePaintRoundTrip) {
+  test::TempDir tmp;
+  // Beside the car-paint and Cook-Torrance forms: a fast approximation that rides along.
+  AxfPaint both = full_paint();
+  both.cosine_lobes = sample_cosine_lobes();
+  write_axf_file(tmp / "both.axf.h5", both);
+  const AxfPaint back = read_axf_file(tmp / "both.axf.h5");
+  ASSERT_TRUE(back.cosine_lobes);
+  EXPECT_EQ(*back.cosine_lobes, sample_cosine_lobes());
+  EXPECT_EQ(back, both);
+  EXPECT_EQ(back.paint_spec().model(), "axf-carpaint");
+  AxfValidation v = validate_axf_file(tmp / "both.axf.h5");
+  EXPECT_TRUE(v.ok()) << all_problems(v);
+  EXPECT_EQ(v.format_version, 5);
+  EXPECT_THAT(describe_axf(back),
+              HasSubstr("cosine lobes (an approximation of the paint): 4 exponents 2.1 .. 4100; kd [0.03, 0.032, 0.035]"));
+
+  // The paint itself.
+  const AxfPaint cl = cosine_lobes_paint();
+  write_axf_file(tmp / "cl.axf.h5", cl);
+  const AxfPaint cl_back = read_axf_file(tmp / "cl.axf.h5");
+  EXPECT_EQ(cl_back, cl);
+  EXPECT_FALSE(cl_back.carpaint || cl_back.cook_torrance || cl_back.flakes);
+  v = validate_axf_file(tmp / "cl.axf.h5");
+  EXPECT_TRUE(v.ok()) << all_problems(v);
+  EXPECT_EQ(v.format_version, 5);
+  EXPECT_EQ(v.paints, std::vector<std::string>{"designed.02"});
+  const brdf::PaintSpec spec = cl_back.paint_spec();
+  EXPECT_EQ(spec.model(), "cosine-lobes");
+  ASSERT_NE(spec.cosine_lobes(), nullptr);
+  EXPECT_EQ(*spec.cosine_lobes(), sample_cosine_lobes());
+  const auto f = brdf::make_brdf(spec);
+  const brdf::CosineLobes expected(sample_cosine_lobes());
+  const brdf::Vec3 wi = brdf::Vec3(0.3, 0.1, 0.9).normalized(), wo = brdf::Vec3(-0.3, -0.1, 0.9).normalized();
+  EXPECT_TRUE((f->eval(wi, wo) == expected.eval(wi, wo)).all());
+  EXPECT_THAT(describe_axf(cl_back), HasSubstr("cosine lobes: 4 exponents 2.1 .. 4100; kd [0.03, 0.032, 0.035]"));
+  EXPECT_THAT(describe_axf(cl_back), HasSubstr("exponent 4100: kg [25, 25, 25]"));
+
+  // From a paint file's paint, and back.
+  brdf::PaintSpec designed;
+  designed.name = "designed.02";
+  designed.params = sample_cosine_lobes();
+  const AxfPaint a = axf_from_paint(designed);
+  EXPECT_EQ(a.model, "cosine-lobes");
+  EXPECT_EQ(a.colour_space, colour::kLinearSrgb);
+  EXPECT_EQ(a.paint_spec(), designed);
+
+  // Merged beside a fit; given twice it is refused.
+  AxfPaint approx;
+  approx.name = "silver-fit.01";
+  approx.colour_space = full_paint().colour_space;
+  approx.cosine_lobes = sample_cosine_lobes();
+  const AxfPaint merged = merge_axf(full_paint(), approx);
+  EXPECT_EQ(merged.model, "axf-carpaint");
+  EXPECT_EQ(merged.cosine_lobes, approx.cosine_lobes);
+  EXPECT_THAT(test::error_message<DataError>([&] { merge_axf(merged, approx); }),
+              HasSubstr("both paints hold cosine-lobe weights"));
+
+  // In a library file.
+  write_axf_library_file(tmp / "lib.h5", {both, cl});
+  const auto lib = read_axf_library_file(tmp / "lib.h5");
+  ASSERT_EQ(lib.size(), 2u);
+  EXPECT_EQ(lib[0], cl);
+  EXPECT_EQ(lib[1], both);
+}
+
+TEST(AxfFile, ValidatorNamesTheCosineLobesFields) {
+  test::TempDir tmp;
+  const fs::path good = tmp / "good.axf.h5";
+  write_axf_file(good, cosine_lobes_paint());
+  const std::vector<Damage> damages = {
+      {"exponent out of range", [](hid_t f) { overwrite_doubles(f, "/cosine_lobes/exponents", {0.1, 15.5, 120, 4100}); },
+       "/cosine_lobes/exponents: value 0.1 at index 0 out of range [0.5, 1e+06]"},
+      {"exponent not finite", [](hid_t f) { overwrite_doubles(f, "/cosine_lobes/exponents", {2.1, NAN, 120, 4100}); },
+       "/cosine_lobes/exponents: value nan at index 1 is not finite"},
+      {"exponents decrease", [](hid_t f) { overwrite_doubles(f, "/cosine_lobes/exponents", {2.1, 150, 120, 4100}); },
+       "/cosine_lobes/exponents: value 120 at index 2 is not above the one before (150): exponents increase"},
+      {"too many exponents",
+       [](hid_t f) {
+         std::vector<double> e(12);
+         for (int k = 0; k < 12; ++k) e[static_cast<std::size_t>(k)] = 1.0 + k;
+         replace_doubles(f, "/cosine_lobes/exponents", e, {12});
+       },
+       "/cosine_lobes/exponents: wrong shape [12], expected [N] with 1 to 11 lobes"},
+      {"kg rows", [](hid_t f) { replace_doubles(f, "/cosine_lobes/kg", std::vector<double>(9, 0.1), {3, 3}); },
+       "/cosine_lobes/kg: wrong shape [3, 3], expected [4, 3] (one row per exponent)"},
+      {"negative kdd",
+       [](hid_t f) {
+         std::vector<double> kdd(12, 0.1);
+         kdd[5] = -0.1;
+         overwrite_doubles(f, "/cosine_lobes/kdd", kdd);
+       },
+       "/cosine_lobes/kdd: value -0.1 at index [1, 2] out of range [0, inf)"},
+      {"lobe count", [](hid_t f) { set_int_attr(f, "/cosine_lobes", "lobe_count", 3); },
+       "/cosine_lobes attribute 'lobe_count': is 3 but /cosine_lobes/exponents has 4 lobes"},
+      {"missing group", [](hid_t f) { H5Ldelete(f, "/cosine_lobes", H5P_DEFAULT); }, "/cosine_lobes: missing group"},
+      {"missing convention",
+       [](hid_t f) {
+         const hid_t g = H5Gopen2(f, "/conventions", H5P_DEFAULT);
+         H5Adelete(g, "cosine_lobes");
+         H5Gclose(g);
+       },
+       "/conventions attribute 'cosine_lobes': missing"},
+      {"changed convention", [](hid_t f) { set_string_attr(f, "/conventions", "cosine_lobes", "f = kg (r.o)^E"); },
+       "/conventions attribute 'cosine_lobes': states a different convention than the format (version 5) defines"},
+      {"model of version 5 in a version-4 file", [](hid_t f) { set_int_attr(f, "/", "format_version", 4); },
+       "/ attribute 'model': 'cosine-lobes' is a model of format version 5, not 4"},
+  };
+  for (const auto& d : damages) {
+    SCOPED_TRACE(d.what);
+    const fs::path file = tmp / "damaged.axf.h5";
+    fs::copy_file(good, file, fs::copy_options::overwrite_existing);
+    damage(file, d.edit);
+    const AxfValidation v = validate_axf_file(file);
+    EXPECT_FALSE(v.ok());
+    EXPECT_TRUE(any_problem_has(v, d.expected)) << "expected \"" << d.expected << "\" in:\n" << all_problems(v);
+    EXPECT_TRUE(any_problem_has(v, "/ attribute 'content_sha256'")) << all_problems(v);
+    EXPECT_THROW(read_axf_file(file), DataError);
+  }
+  // The writer applies the same rules, and a cosine-lobes paint has nothing flakes could carry.
+  AxfPaint bad = cosine_lobes_paint();
+  bad.cosine_lobes->exponents[3] = 100;
+  EXPECT_THAT(test::error_message<DataError>([&] { write_axf_file(tmp / "bad.axf.h5", bad); }),
+              HasSubstr("/cosine_lobes/exponents: value 100 at index 3 is not above the one before (120)"));
+  bad = cosine_lobes_paint();
+  bad.flakes = brdf::FlakeSpec{};
+  EXPECT_THAT(test::error_message<DataError>([&] { check_axf_paint(bad); }),
+              HasSubstr("/flakes: a cosine-lobes paint has no lobes for flakes to carry"));
+  bad = cosine_lobes_paint();
+  bad.cosine_lobes.reset();
+  EXPECT_THAT(test::error_message<DataError>([&] { check_axf_paint(bad); }), HasSubstr("/cosine_lobes: missing group"));
+  EXPECT_FALSE(fs::exists(tmp / "bad.axf.h5"));
 }

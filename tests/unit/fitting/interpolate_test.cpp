@@ -317,6 +317,21 @@ TEST(Interpolation, BadInputIsRefusedWithTheReason) {
   other = b;
   other.colour_space = colour::kCameraRgb;
   EXPECT_THAT(refused([&] { interpolatable_paint(a, other); }), HasSubstr("different colour spaces"));
+  // A cosine-lobes paint has no form to interpolate; cosine-lobe weights beside a fit are left
+  // out of the result (they approximate a parent), and said so.
+  const brdf::CosineLobeParams lobes{{2, 50}, brdf::Rgb(0.1, 0.1, 0.1), {brdf::Rgb(0, 0, 0), brdf::Rgb(1, 1, 1)},
+                                     {brdf::Rgb(0.1, 0.1, 0.1), brdf::Rgb(0, 0, 0)}};
+  other = b;
+  other.model = "cosine-lobes";
+  other.cook_torrance.reset();
+  other.cosine_lobes = lobes;
+  EXPECT_THAT(refused([&] { interpolatable_paint(a, other); }), HasSubstr("'gold' is a cosine-lobes paint"));
+  other = b;
+  other.cosine_lobes = lobes;
+  const RealisedPaint r = realise(interpolatable_paint(a, other), 0.5, 0.5, false);
+  EXPECT_FALSE(r.paint.cosine_lobes);
+  ASSERT_FALSE(r.notes.empty());
+  EXPECT_THAT(r.notes.back(), HasSubstr("cosine-lobe weights (/cosine_lobes) are left out"));
   // A slice measured in one paint only is left out, and said so.
   other = b;
   other.flake_stats->slices.pop_back();

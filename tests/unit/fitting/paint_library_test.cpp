@@ -22,6 +22,7 @@
 #include "paintlab/core/error.h"
 #include "paintlab/core/json.h"
 #include "paintlab/core/version.h"
+#include "paintlab/fitting/multiangle.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -142,6 +143,34 @@ TEST(PaintLibrary, AddListLoadRemove) {
   EXPECT_THAT(test::error_message<DataError>([&] { lib.remove("silver"); }),
               HasSubstr("no paint 'silver' (paints: blue)"));
   EXPECT_TRUE(lib.check().empty());
+}
+
+// A designed paint (model cosine-lobes, /cosine_lobes only) is a library paint like the others:
+// its colour at the multi-angle geometries is the cosine-lobe model's.
+TEST(PaintLibrary, ACosineLobesPaintIsAddedWithItsColour) {
+  test::TempDir tmp;
+  PaintLibrary lib = PaintLibrary::open(tmp / "lib", true);
+  AxfPaint p;
+  p.name = "designed";
+  p.model = "cosine-lobes";
+  p.colour_space = colour::kLinearSrgb;
+  brdf::CosineLobeParams cl;
+  cl.exponents = {3, 60, 2000};
+  cl.kd = brdf::Rgb(0.3, 0.05, 0.04);
+  cl.kg = {brdf::Rgb(0.01, 0.002, 0.002), brdf::Rgb(0.2, 0.05, 0.04), brdf::Rgb(12, 12, 12)};
+  cl.kdd = {brdf::Rgb(0.1, 0.02, 0.02), brdf::Rgb(0.3, 0.06, 0.05), brdf::Rgb(0, 0, 0)};
+  p.cosine_lobes = cl;
+  const LibraryEntry e = lib.add(p, false);
+  EXPECT_EQ(e.model, "cosine-lobes");
+  const auto expected = colour_at(brdf::CosineLobes(cl), geometry_set(kDefaultGeometrySet));
+  ASSERT_EQ(e.colour.size(), expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(e.colour[i].first, expected[i].geometry.name);
+    EXPECT_NEAR(e.colour[i].second.L, expected[i].lab.L, 1e-9) << i;
+    EXPECT_NEAR(e.colour[i].second.a, expected[i].lab.a, 1e-9) << i;
+  }
+  EXPECT_GT(e.colour.front().second.a, 10.0);  // a red paint
+  EXPECT_EQ(lib.load("designed").cosine_lobes, p.cosine_lobes);
 }
 
 TEST(PaintLibrary, DuplicateNamesNeedReplace) {

@@ -12,6 +12,7 @@
 #include "paintlab/brdf/brdf.h"
 #include "paintlab/brdf/carpaint.h"
 #include "paintlab/brdf/cook_torrance.h"
+#include "paintlab/brdf/cosine_lobes.h"
 #include "paintlab/brdf/pearlescent.h"
 #include "paintlab/core/config.h"
 #include "paintlab/core/json.h"
@@ -61,7 +62,8 @@ struct MerlParams {
   bool operator==(const MerlParams& o) const { return table == o.table; }
 };
 
-using PaintParams = std::variant<CookTorranceParams, AxfCarPaintParams, PearlescentParams, MerlParams>;
+using PaintParams =
+    std::variant<CookTorranceParams, AxfCarPaintParams, PearlescentParams, MerlParams, CosineLobeParams>;
 
 struct PaintSpec {
   std::string name;  // [a-z0-9._-]+
@@ -69,18 +71,20 @@ struct PaintSpec {
   std::optional<FlakeSpec> flakes;
   std::filesystem::path source;  // the file it came from (empty otherwise); not compared
 
-  // "cook-torrance", "axf-carpaint", "layered-pearlescent" or "merl".
+  // "cook-torrance", "axf-carpaint", "layered-pearlescent", "merl" or "cosine-lobes".
   std::string model() const;
   const CookTorranceParams* cook_torrance() const { return std::get_if<CookTorranceParams>(&params); }
   const AxfCarPaintParams* axf_carpaint() const { return std::get_if<AxfCarPaintParams>(&params); }
   const PearlescentParams* pearlescent() const { return std::get_if<PearlescentParams>(&params); }
   const MerlParams* merl() const { return std::get_if<MerlParams>(&params); }
+  const CosineLobeParams* cosine_lobes() const { return std::get_if<CosineLobeParams>(&params); }
   bool operator==(const PaintSpec& o) const { return name == o.name && params == o.params && flakes == o.flakes; }
 };
 
 // The paint as a monochrome camera with channel weights `w` (linear RGB to its one channel)
-// sees it: Cook-Torrance is linear in kd and ks (F, D, G do not depend on the channel), so
-// each becomes w . rgb in all three channels. Other models are returned unchanged.
+// sees it: Cook-Torrance is linear in kd and ks (F, D, G do not depend on the channel), the
+// cosine lobes in kd, kg and kdd, so each weight becomes w . rgb in all three channels. Other
+// models are returned unchanged.
 PaintSpec seen_in_mono(PaintSpec p, const Rgb& w);
 
 // The model names a paint file may use.
@@ -88,7 +92,9 @@ const std::vector<std::string>& paint_models();
 
 // Reads and validates a paint file. Throws IoError (cannot read) or ConfigError
 // ("FILE:LINE: key 'KEY': RULE") for syntax errors, unknown keys, wrong types, values out
-// of range, a bad name, 0 or more than 3 lobes, a missing MERL table.
+// of range, a bad name, 0 or more than 3 lobes, a missing MERL table, cosine-lobe exponents
+// that do not increase or weights that do not match them one for one, [flakes] on a paint
+// without lobes the flakes could carry (merl, cosine-lobes).
 PaintSpec load_paint_file(const std::filesystem::path& path);
 // The same on an already parsed table (relative MERL paths resolve against the folder
 // of t.file()). Calls finish() on every table it reads.

@@ -9,7 +9,9 @@
 //
 // A paint that is only a Cook-Torrance fit exports without /carpaint (the AxF car-paint
 // form has achromatic lobes under one colour table, which an RGB Cook-Torrance fit does
-// not reduce to exactly); /cook_torrance then is the paint.
+// not reduce to exactly); /cook_torrance then is the paint. Likewise a cosine-lobe paint
+// (`paintlab design`) is /cosine_lobes alone; beside a car-paint or Cook-Torrance form the
+// same group holds that paint's cosine-lobe weights, a fast approximation.
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -34,8 +36,11 @@ inline constexpr const char* kAxfFormat = "paintlab-axf-like";
 // Files of versions 1 and 2 are still read (as linear camera RGB). Version 4 (issue 16) adds
 // the flakes' colour to /flakes (tint_sd, interference, interference_chroma,
 // interference_shift_deg: all four or none), /flake_stats (the measured flake statistics, the
-// flakes.json text) and /flake_btf (their CPA2-style flake BTF).
-inline constexpr int kAxfFormatVersion = 4;
+// flakes.json text) and /flake_btf (their CPA2-style flake BTF). Version 5 adds /cosine_lobes
+// (the cosine-lobe weights of brdf/cosine_lobes.h: exponents, kd, kg, kdd), model
+// "cosine-lobes" (a paint that is only those weights) and the convention "cosine_lobes" that
+// states their formula (required from version 5 on; files of versions 1 to 4 read as before).
+inline constexpr int kAxfFormatVersion = 5;
 // The file holding a whole library (`paintlab library export --h5`): /paints/<name> groups,
 // each with the layout of one AxF-like file.
 inline constexpr const char* kAxfLibraryFormat = "paintlab-axf-library";
@@ -83,23 +88,28 @@ struct AxfPaint {
   std::string name;    // [a-z0-9._-]+
   // What the RGB values are: colour::kLinearSrgb or colour::kCameraRgb (/conventions "values").
   std::string colour_space = colour::kCameraRgb;
-  std::string model;   // the paint's model: "axf-carpaint" or "cook-torrance"
+  std::string model;   // the paint's model: "axf-carpaint", "cook-torrance" or "cosine-lobes"
   std::optional<brdf::AxfCarPaintParams> carpaint;   // required when model == "axf-carpaint"
   std::optional<AxfCarPaintStddev> carpaint_stddev;  // only with carpaint
   std::optional<AxfCookTorrance> cook_torrance;      // required when model == "cook-torrance"
+  // The paint's cosine-lobe weights (version 5): the paint itself when model == "cosine-lobes"
+  // (`paintlab design`), else a fast approximation of the carpaint / cook-torrance form
+  // (`paintlab export --cosine-lobes`).
+  std::optional<brdf::CosineLobeParams> cosine_lobes;
   std::optional<brdf::FlakeSpec> flakes;             // the simulator's flake model (a paint file's)
   std::optional<FlakeStats> flake_stats;              // measured flakes (version 4; docs/sparkle.md)
   std::optional<FlakeBtf> flake_btf;                  // their CPA2-style flake BTF (version 4)
   std::optional<AxfFitQuality> fit_quality;
   AxfProvenance provenance;
 
-  // The paint itself (model chooses /carpaint or /cook_torrance), ready for make_brdf().
+  // The paint itself (model chooses /carpaint, /cook_torrance or /cosine_lobes), ready for
+  // make_brdf().
   brdf::PaintSpec paint_spec() const;
   bool operator==(const AxfPaint&) const = default;
 };
 
 // The AxF-like form of a paint file's paint (linear sRGB: the convention of paint files).
-// Cook-torrance and axf-carpaint paints only;
+// Cook-torrance, axf-carpaint and cosine-lobes paints only;
 // DataError for the others ("layered-pearlescent paints have no AxF-like form: fit it").
 AxfPaint axf_from_paint(const brdf::PaintSpec& spec);
 // The AxF-like form of a fit.json object (DESIGN.md "fit" plus "stddev", "summary") of
@@ -107,8 +117,8 @@ AxfPaint axf_from_paint(const brdf::PaintSpec& spec);
 // DataError naming `where` and the key.
 AxfPaint axf_from_fit_json(const Json& fit, const std::string& where);
 // Adds the paint form of `other` that `base` lacks (a Cook-Torrance fit beside an AxF
-// car-paint fit of the same measurement, or the other way round). DataError when both
-// hold the same form.
+// car-paint fit of the same measurement, or the other way round; cosine-lobe weights beside
+// either). DataError when both hold the same form.
 AxfPaint merge_axf(AxfPaint base, const AxfPaint& other);
 
 // Writes the file atomically (temp file + rename: never a partial file). Checks the paint
@@ -147,7 +157,9 @@ std::string describe_axf(const AxfPaint& paint);
 
 // The convention attributes of /conventions (name, text), exactly as written and checked;
 // "values" as versions 1 and 2 state it (camera RGB), axf_values_convention() for version 3.
+// Each is required from axf_convention_since(name) on ("cosine_lobes": 5; the others: 1).
 const std::vector<std::pair<std::string, std::string>>& axf_conventions();
+int axf_convention_since(const std::string& name);
 std::string axf_values_convention(const std::string& colour_space);
 
 }  // namespace paintlab::fit

@@ -42,7 +42,7 @@ struct InterpolatablePaint {
 };
 
 // DataError with the reason when the two cannot interpolate: different colour spaces,
-// models without a common form, Cook-Torrance forms with different lobe counts, colour
+// a cosine-lobes paint, models without a common form, Cook-Torrance forms with different lobe counts, colour
 // tables of different sizes, flake slices of different layouts (num_theta_F / num_theta_I /
 // ior), or flakes in one paint only.
 InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b);
@@ -63,7 +63,7 @@ struct RealisedPaint {
 // With `flake_btf` the flake BTF is drawn again from the realised statistics at the texture
 // size of the first parent's (most of a realisation's time; a slider previewing through
 // FlakeSparkle needs only the statistics). Provenance: source "interpolation: A wA, B wB"; the fit quality is dropped (no
-// measurement was fitted).
+// measurement was fitted), and so are the parents' cosine-lobe weights (a note says so).
 RealisedPaint realise(const InterpolatablePaint& m, double wa, double wb, bool flake_btf = true,
                       FlakeColourMode flake_colour = FlakeColourMode::All);
 

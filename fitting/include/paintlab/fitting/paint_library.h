@@ -49,7 +49,7 @@ struct LibraryEntry {
   std::string name;
   std::string file;        // relative to the library folder ("silver.3.axf.h5")
   std::string sha256;      // of the file
-  std::string model;       // "cook-torrance" or "axf-carpaint"
+  std::string model;       // "cook-torrance", "axf-carpaint" or "cosine-lobes"
   std::string date;        // when the paint was measured (else exported), ISO 8601 UTC
   std::string added_utc;
   std::string sample;      // provenance sample name ("" when unknown)
