@@ -81,5 +81,6 @@ void register_colour_commands(CLI::App& app);     // paintlab colour, paintlab q
 void register_report_commands(CLI::App& app);     // paintlab report (cmd_report.cpp)
 void register_flakes_commands(CLI::App& app);     // paintlab flakes (cmd_flakes.cpp)
 void register_demo_commands(CLI::App& app);       // paintlab demo (cmd_demo.cpp)
+void register_design_commands(CLI::App& app);     // paintlab basis, design (cmd_design.cpp)
 
 }  // namespace paintlab::app

@@ -41,6 +41,8 @@ struct ExportArgs {
   std::uint64_t seed = 1;
   std::string flakes;   // a flakes.json, or "auto" (a session's, measured here)
   int flake_texture = 32;
+  bool cosine_lobes = false;
+  std::string basis;
   ExtractArgs extract;  // --calib, --margin-px, --variance, --estimator; --threads for all
   CLI::Option* model_option = nullptr;
   CLI::Option* lobes_option = nullptr;
@@ -49,7 +51,10 @@ struct ExportArgs {
 int run_export(const ExportArgs& a) {
   fit::OutputGuard guard;
   for (const auto& in : a.inputs) guard.input("INPUT", in).input("what " + in + " was fitted to", fit::fitted_input_of(in));
-  guard.input("--calib", a.extract.calib);
+  guard.input("--calib", a.extract.calib).input("--basis", a.basis);
+  if (a.cosine_lobes && a.basis.empty())
+    throw UsageError("--cosine-lobes needs --basis BASIS.json (made by paintlab basis fit --dir LIBRARY)");
+  if (!a.cosine_lobes && !a.basis.empty()) throw UsageError("--basis gives the exponents of --cosine-lobes: add it");
   if (a.flakes != "auto") guard.input("--flakes", a.flakes);
   guard.output({"--axf", a.axf}).output({"--merl", a.merl}).output({"--fit-out", a.fit_out}).check();
   fit::ExportRequest r;
@@ -66,6 +71,7 @@ int run_export(const ExportArgs& a) {
   if (a.flakes == "auto") r.session_flakes = true;
   else if (!a.flakes.empty()) r.flakes = a.flakes;
   r.flake_texture = a.flake_texture;
+  if (a.cosine_lobes) r.cosine_basis = a.basis;
   const fit::ExportResult result = fit::export_paint(r);
   for (const auto& line : result.lines) say(line);
   if (!result.converged) {
@@ -117,6 +123,10 @@ void register_export_commands(CLI::App& app) {
   exp->add_option("--flake-texture", args->flake_texture, "Texels a side of each flake BTF slice, 1..1024")
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
+  exp->add_flag("--cosine-lobes", args->cosine_lobes,
+               "With --axf: add the paint's cosine-lobe weights (per channel) for the exponents of --basis "
+               "(docs/design.md \"Cosine-lobe basis\")");
+  exp->add_option("--basis", args->basis, "The cosine-lobe basis (basis.json of paintlab basis fit)");
   add_extract_options(exp, args->extract, true);
   add_cfa_sites_option(exp, args->extract);
 

@@ -10,6 +10,7 @@
 #include "paintlab/fitting/export.h"
 #include "paintlab/core/error.h"
 #include "paintlab/fitting/preview.h"
+#include "paintlab/fitting/prefiltered_env.h"
 
 namespace fs = std::filesystem;
 
@@ -43,6 +44,9 @@ struct RenderArgs {
   std::string calib;
   int window_px = fit::CompareOptions{}.window_px;
   bool no_sparkle = false;
+  std::string basis = "full";
+  std::string env_cache;
+  bool against_full = false;
 };
 
 int run_compare(const RenderArgs& a) {
@@ -76,6 +80,23 @@ int run_compare(const RenderArgs& a) {
   return kExitOk;
 }
 
+int run_cosine(const RenderArgs& a, const fit::PreviewOptions& o) {
+  if (!a.compare.empty()) throw UsageError("--basis cosine renders the preview scene; --compare needs the full model");
+  const fs::path cache = a.env_cache.empty() ? fit::PrefilteredEnvironment::default_cache_dir() : fs::path(a.env_cache);
+  const fit::CosineRenderResult r = fit::render_cosine_png(
+      a.paint, a.out, o, cache, a.against_full, a.hdr.empty() ? std::nullopt : std::optional<fs::path>(a.hdr));
+  if (o.environment)
+    say(fmt::format("prefiltered maps: {} in {:.2f} s ({})", r.maps_from_cache ? "read from the cache" : "built",
+                    r.maps_s, cache.string()));
+  say(fmt::format("cosine-lobe render: {:.1f} ms ({:.0f} frames/s at {} x {})", r.render_ms, 1000.0 / r.render_ms,
+                  o.size_px, o.size_px));
+  if (r.log_rms)
+    say(fmt::format("full model ({} samples per strategy): {:.0f} ms, {:.0f}x slower; RMS log ratio basis/full {:.4f}",
+                    o.environment_samples, r.full_ms, r.full_ms / r.render_ms, *r.log_rms));
+  say(fmt::format("wrote {} ({}, exposure {:.4g})", a.out, a.paint, r.preview.exposure));
+  return kExitOk;
+}
+
 int run_render(const RenderArgs& a) {
   fit::OutputGuard()
       .input("PAINT", a.paint)
@@ -97,6 +118,9 @@ int run_render(const RenderArgs& a) {
   o.tone.exposure = a.exposure;
   o.sparkle = !a.no_sparkle;
   if (!o.point_light && !o.environment) throw UsageError("--no-point-light needs --env ENV.exr (nothing would light the sphere)");
+  if (a.basis == "cosine") return run_cosine(a, o);
+  if (a.against_full || !a.env_cache.empty())
+    throw UsageError("--against-full and --env-cache apply to --basis cosine");
   const fit::Preview p =
       fit::render_preview_png(a.paint, a.out, o, a.hdr.empty() ? std::nullopt : std::optional<fs::path>(a.hdr));
   say(fmt::format("wrote {} ({} x {} px, {}, exposure {:.4g}, peak [{:.4g}, {:.4g}, {:.4g}] at ({}, {}))", a.out,
@@ -134,6 +158,15 @@ void register_render_commands(CLI::App& app) {
   r->add_option("--calib", args->calib, "--compare: calibration folder (default: the session's rig's)");
   r->add_flag("--no-sparkle", args->no_sparkle,
               "Leave out the paint's measured flakes (drawn by default when the paint carries them, docs/sparkle.md)");
+  r->add_option("--basis", args->basis,
+                "full: the paint's model (environment by Monte Carlo); cosine: its cosine-lobe weights, the environment "
+                "by one prefiltered map per exponent (docs/design.md \"Rendering the basis\")")
+      ->check(CLI::IsMember({"full", "cosine"}))
+      ->capture_default_str();
+  r->add_option("--env-cache", args->env_cache,
+                "--basis cosine: where the prefiltered maps are kept (default $XDG_CACHE_HOME/paintlab/prefiltered)");
+  r->add_flag("--against-full", args->against_full,
+              "--basis cosine: also render the full model and print the RMS log ratio and the speed-up");
   sets_fields(r->add_option("--window", args->window_px,
                             "--compare: half size of the window the difference is averaged over, px (0: pixel by pixel)"),
               {"CompareOptions::window_px"})

@@ -54,6 +54,7 @@ int main(int argc, char** argv) {
   app::register_colour_commands(app);
   app::register_report_commands(app);
   app::register_flakes_commands(app);
+  app::register_design_commands(app);
   app::register_demo_commands(app);
 
   try {

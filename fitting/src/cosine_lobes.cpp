@@ -241,16 +241,28 @@ Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
   return x.cwiseProduct(scale);
 }
 
-Eigen::VectorXd nonnegative_l1(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& l1_weights) {
+Eigen::VectorXd cosine_lobe_albedo(const std::vector<double>& exponents) {
+  const auto n = static_cast<Eigen::Index>(exponents.size());
+  Eigen::VectorXd a(1 + 2 * n);
+  a[0] = 1.0;
+  for (Eigen::Index i = 0; i < n; ++i) a[1 + i] = a[1 + n + i] = 2 * kPi / (exponents[static_cast<std::size_t>(i)] + 2);
+  return a;
+}
+
+Eigen::VectorXd nonnegative_l1(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& l1_weights,
+                               const Eigen::MatrixXd& C, const Eigen::VectorXd& d) {
   // min sum (u + v) + c.x subject to A x - u + v = b; x, u, v >= 0 (u, v: the residual's parts).
   lemon::Lp lp;
   lp.messageLevel(lemon::LpBase::MESSAGE_NOTHING);
   const Eigen::Index m = A.cols(), rows = A.rows();
   // Columns scaled to a largest entry of 1: the simplex's tolerances are absolute.
+  // A column 1e-12 of the largest (a narrow lobe far from every row's geometry) is left out: it
+  // could only contribute through a weight no paint has.
   Eigen::VectorXd scale(m);
+  const double largest = A.cwiseAbs().maxCoeff();
   for (Eigen::Index j = 0; j < m; ++j) {
     const double mx = A.col(j).cwiseAbs().maxCoeff();
-    scale[j] = mx > 0 ? 1.0 / mx : 0.0;
+    scale[j] = mx > 1e-12 * largest ? 1.0 / mx : 0.0;
   }
   std::vector<lemon::Lp::Col> x(static_cast<std::size_t>(m));
   lemon::Lp::Expr objective;
@@ -258,7 +270,7 @@ Eigen::VectorXd nonnegative_l1(const Eigen::MatrixXd& A, const Eigen::VectorXd& 
     x[static_cast<std::size_t>(j)] = lp.addCol();
     lp.colLowerBound(x[static_cast<std::size_t>(j)], 0);
     if (scale[j] == 0) lp.colUpperBound(x[static_cast<std::size_t>(j)], 0);
-    if (l1_weights.size() == m && l1_weights[j] != 0) objective += l1_weights[j] / std::max(scale[j], 1e-300) * x[static_cast<std::size_t>(j)];
+    if (l1_weights.size() == m && l1_weights[j] != 0) objective += l1_weights[j] * scale[j] * x[static_cast<std::size_t>(j)];
   }
   for (Eigen::Index r = 0; r < rows; ++r) {
     const auto u = lp.addCol(), v = lp.addCol();
@@ -269,6 +281,12 @@ Eigen::VectorXd nonnegative_l1(const Eigen::MatrixXd& A, const Eigen::VectorXd& 
     for (Eigen::Index j = 0; j < m; ++j)
       if (A(r, j) != 0 && scale[j] != 0) e += A(r, j) * scale[j] * x[static_cast<std::size_t>(j)];
     lp.addRow(e - u + v == b[r]);
+  }
+  for (Eigen::Index r = 0; r < C.rows(); ++r) {
+    lemon::Lp::Expr e;
+    for (Eigen::Index j = 0; j < m; ++j)
+      if (C(r, j) != 0 && scale[j] != 0) e += C(r, j) * scale[j] * x[static_cast<std::size_t>(j)];
+    lp.addRow(e <= d[r]);
   }
   lp.min();
   lp.obj(objective);
@@ -493,14 +511,17 @@ DesignResult design_paint(const std::vector<double>& exponents, const std::vecto
           "outside the sRGB gamut (linear R, G, B {:.3f}, {:.3f}, {:.3f}): non-negative weights cannot make it", rgb[0],
           rgb[1], rgb[2]);
   }
-  // Tie-break: among equally close solutions the one of least total reflectance over the
-  // targets (1e-6 of the objective's scale: it never trades an error for it).
-  const Eigen::VectorXd tie = 1e-6 * A.colwise().sum().transpose() / std::max(1.0, static_cast<double>(g));
+  // At most 1 of albedo at normal incidence per channel, and among equally close solutions the
+  // one of least albedo (1e-6 of the objective's scale: it never trades an error for it).
+  const Eigen::VectorXd albedo = cosine_lobe_albedo(exponents);
+  const Eigen::MatrixXd C = albedo.transpose();
+  const Eigen::VectorXd one = Eigen::VectorXd::Ones(1);
+  const Eigen::VectorXd tie = 1e-6 * albedo;
   const auto start = std::chrono::steady_clock::now();
   std::array<Eigen::VectorXd, 3> x;
   for (int c = 0; c < 3; ++c) {
     const Eigen::VectorXd w = (R.col(c).array() + 0.01).inverse().matrix();
-    x[static_cast<std::size_t>(c)] = nonnegative_l1(w.asDiagonal() * A, w.cwiseProduct(R.col(c)), tie);
+    x[static_cast<std::size_t>(c)] = nonnegative_l1(w.asDiagonal() * A, w.cwiseProduct(R.col(c)), tie, C, one);
   }
   DesignResult r;
   r.solve_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -19,7 +19,9 @@
 #include "paintlab/core/rig.h"
 #include "paintlab/core/version.h"
 #include "paintlab/acquisition/session_reader.h"
+#include "paintlab/fitting/cosine_lobes.h"
 #include "paintlab/fitting/hole_fill.h"
+#include "paintlab/fitting/prefiltered_env.h"
 
 namespace fs = std::filesystem;
 
@@ -81,6 +83,15 @@ SessionBinOptions with_threads(SessionBinOptions o, int threads) {
   o.extraction.threads = threads;
   o.binning.threads = threads;
   return o;
+}
+
+// Adds the paint's cosine-lobe weights for the basis in `basis_file`; the line for people.
+std::string attach_cosine_lobes(AxfPaint& paint, const fs::path& basis_file) {
+  const CosineBasis basis = read_cosine_basis(basis_file);
+  const CosineLobeFit fit = fit_cosine_lobes(*brdf::make_brdf(paint.paint_spec()), basis.exponents);
+  paint.cosine_lobes = fit.params;
+  return fmt::format("cosine lobes: {} exponents of {}, mean relative error {:.1f} % (largest {:.0f} %)",
+                     basis.exponents.size(), basis_file.string(), 100 * fit.mean_error, 100 * fit.max_error);
 }
 
 // Binning + fitting of a session (export_paint's session branch).
@@ -160,6 +171,7 @@ void export_session(const ExportRequest& r, ExportResult& result) {
       result.lines.push_back(attach_flakes(paint, flakes_from_json(read_json_file(*r.flakes), r.flakes->string()),
                                            r.flake_texture));
     }
+    if (r.cosine_basis) result.lines.push_back(attach_cosine_lobes(paint, *r.cosine_basis));
     write_axf_file(*r.axf, paint);  // checks the paint first: nothing written when it is wrong
     result.paint = read_axf_file(*r.axf);  // as written (export date, software version)
     result.lines.push_back(axf_line(*r.axf, *result.paint));
@@ -229,6 +241,7 @@ void export_paint_files(const ExportRequest& r, ExportResult& result) {
   const auto t0 = std::chrono::steady_clock::now();
   if (r.axf) {
     if (!r.name.empty()) paint->name = r.name;
+    if (r.cosine_basis) result.lines.push_back(attach_cosine_lobes(*paint, *r.cosine_basis));
     write_axf_file(*r.axf, *paint);
     result.paint = read_axf_file(*r.axf);
     result.lines.push_back(axf_line(*r.axf, *result.paint));
@@ -246,6 +259,8 @@ ExportResult export_paint(const ExportRequest& r) {
   if ((r.flakes || r.session_flakes) && !r.axf)
     throw UsageError("--flakes goes into the AxF-like file: give --axf FILE");
   if (r.flakes && r.session_flakes) throw UsageError("--flakes: a flakes.json or auto, not both");
+  if (r.cosine_basis && !r.axf) throw UsageError("--cosine-lobes goes into the AxF-like file: give --axf FILE");
+  if (r.cosine_basis) read_cosine_basis(*r.cosine_basis);  // a bad basis stops the export before any work
   ExportResult result;
   if (acq::is_session_dir(r.inputs[0]))
     export_session(r, result);
@@ -280,6 +295,56 @@ Preview render_preview_png(const fs::path& paint_file, const fs::path& out_png, 
   write_png8(out_png, p.png);
   if (hdr_out) write_exr_rgb(*hdr_out, p.linear, "preview of " + paint.name + ", linear radiance");
   return p;
+}
+
+double preview_log_rms(const ImageF& a, const ImageF& b, const std::vector<std::uint8_t>& mask) {
+  const int W = a.width(), H = a.height();
+  double peak = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (mask[static_cast<std::size_t>(y) * W + x])
+        peak = std::max(peak, (b.at(x, y, 0) + b.at(x, y, 1) + b.at(x, y, 2)) / 3.0);
+  double sum = 0;
+  std::size_t n = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (!mask[static_cast<std::size_t>(y) * W + x]) continue;
+      const double va = (a.at(x, y, 0) + a.at(x, y, 1) + a.at(x, y, 2)) / 3.0;
+      const double vb = (b.at(x, y, 0) + b.at(x, y, 1) + b.at(x, y, 2)) / 3.0;
+      if (!(va > 1e-6 * peak) || !(vb > 1e-6 * peak)) continue;
+      sum += std::log(va / vb) * std::log(va / vb);
+      ++n;
+    }
+  return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
+}
+
+CosineRenderResult render_cosine_png(const fs::path& paint_file, const fs::path& out_png, const PreviewOptions& options,
+                                     const fs::path& cache_dir, bool against_full, const std::optional<fs::path>& hdr_out) {
+  const AxfPaint paint = load_any_paint(paint_file);
+  if (!paint.cosine_lobes)
+    throw DataError(paint_file.string() + ": the paint has no cosine-lobe weights: export it with --cosine-lobes "
+                                          "--basis BASIS.json (or design one with paintlab design)");
+  CosineRenderResult r;
+  std::optional<PrefilteredEnvironment> maps;
+  auto t0 = std::chrono::steady_clock::now();
+  if (options.environment)
+    maps = PrefilteredEnvironment::cached(*options.environment, options.environment_intensity,
+                                          paint.cosine_lobes->exponents, cache_dir, &r.maps_from_cache);
+  r.maps_s = seconds_since(t0);
+  t0 = std::chrono::steady_clock::now();
+  r.preview = render_preview_cosine(*paint.cosine_lobes, options, maps ? &*maps : nullptr);
+  r.render_ms = 1000 * seconds_since(t0);
+  if (against_full) {
+    const auto model = brdf::make_brdf(paint.paint_spec());
+    t0 = std::chrono::steady_clock::now();
+    const Preview full = render_preview(*model, options);
+    r.full_ms = 1000 * seconds_since(t0);
+    r.log_rms = preview_log_rms(r.preview.linear, full.linear, r.preview.mask);
+  }
+  write_png8(out_png, r.preview.png);
+  if (hdr_out)
+    write_exr_rgb(*hdr_out, r.preview.linear, "cosine-lobe preview of " + paint.name + ", linear radiance");
+  return r;
 }
 
 ComparisonResult render_comparison_png(const fs::path& paint_file, const fs::path& session_dir, double angle_deg,

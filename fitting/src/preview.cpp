@@ -306,6 +306,12 @@ Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& o, const En
       }
   });
 
+  finish_preview(out, o);
+  return out;
+}
+
+void finish_preview(Preview& out, const PreviewOptions& o) {
+  const int S = o.size_px;
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x) {
       if (!out.mask[static_cast<std::size_t>(y) * S + x]) continue;
@@ -323,7 +329,6 @@ Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& o, const En
     for (int x = 0; x < S; ++x)
       if (!out.mask[static_cast<std::size_t>(y) * S + x])
         for (int c = 0; c < 3; ++c) out.png.at(x, y, c) = kPreviewBackground;
-  return out;
 }
 
 void write_exr_rgb(const std::filesystem::path& path, const ImageF& rgb, const std::string& description) {

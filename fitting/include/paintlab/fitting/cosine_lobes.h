@@ -52,9 +52,15 @@ Eigen::MatrixXd cosine_lobe_columns(const std::vector<DirectionPair>& at, const 
 Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b);
 
 // Minimises sum_r |A x - b|_r over x >= 0 by the simplex (GLPK through LEMON) plus
-// `l1_weights . x` (a tie-break among equally good solutions; may be empty). DataError when the
-// solver fails.
-Eigen::VectorXd nonnegative_l1(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& l1_weights = {});
+// `l1_weights . x` (a tie-break among equally good solutions; may be empty), subject to
+// C x <= d (may be empty). DataError when the solver fails.
+Eigen::VectorXd nonnegative_l1(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& l1_weights = {},
+                               const Eigen::MatrixXd& C = {}, const Eigen::VectorXd& d = {});
+
+// The paint's directional albedo at normal incidence per unit weight of each column [kd, kg_i,
+// kdd_i]: 1 and 2 pi / (E_i + 2) (the lobe about the normal, integral of cos^E times cos).
+// What `design` keeps at most 1 per channel (energy conservation at normal incidence).
+Eigen::VectorXd cosine_lobe_albedo(const std::vector<double>& exponents);
 
 enum class LobeNorm {
   L1,  // the linear programme (the source's)
@@ -154,8 +160,9 @@ struct DesignResult {
 
 // The basis weights (per channel, >= 0) whose CIELAB at the targets' geometries is closest to
 // the targets: the L1 linear programme over the relative error of each target's linear sRGB
-// reflectance factor (a target hit exactly in every channel has dE00 0), with a tie-break
-// towards the smallest weights. Targets outside the sRGB gamut (a negative linear channel) are
+// reflectance factor (a target hit exactly in every channel has dE00 0), with the albedo at
+// normal incidence at most 1 per channel (else a narrow lobe's far tail could hit a target with
+// an absurd weight whose gloss no paint has) and a tie-break towards the least albedo. Targets outside the sRGB gamut (a negative linear channel) are
 // aimed at their gamut's edge and reported.
 DesignResult design_paint(const std::vector<double>& exponents, const std::vector<DesignTarget>& targets);
 

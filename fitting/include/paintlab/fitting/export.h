@@ -51,6 +51,9 @@ struct ExportRequest {
   bool session_flakes = false;
   FlakeOptions flake_options;
   int flake_texture = 32;  // texels a side of each BTF slice
+  // With `axf`: the paint's cosine-lobe weights for this basis (basis.json of `paintlab basis
+  // fit`) added as /cosine_lobes (docs/design.md "Cosine-lobe basis").
+  std::optional<std::filesystem::path> cosine_basis;
   std::string name;  // paint name (default: the session's sample name / the fit's name)
   std::uint64_t seed = 1;
   int threads = 0;  // 0 = all cores (fits and binning)
@@ -83,6 +86,26 @@ AxfPaint export_axf(const std::vector<Json>& fits, const AxfProvenance& provenan
 // needed. A paint of the same name is refused (DataError) unless `replace`.
 LibraryEntry library_add(const std::filesystem::path& dir, const std::filesystem::path& paint_file, bool replace,
                          const std::string& name = "");
+
+// `paintlab render PAINT --out PNG --basis cosine [--env ENV.exr]`: the preview of the paint's
+// cosine-lobe weights (/cosine_lobes, or a cosine-lobes paint) with the environment through the
+// prefiltered maps (prefiltered_env.h; from `cache_dir`, built there once). With
+// `against_full`, the paint's full model is rendered in the same scene too (the environment by
+// Monte Carlo, render_preview) and compared. DataError for a paint without cosine-lobe weights.
+struct CosineRenderResult {
+  Preview preview;
+  double render_ms = 0;          // the basis render (maps ready)
+  double maps_s = 0;             // loading or building the prefiltered maps
+  bool maps_from_cache = false;
+  std::optional<double> log_rms;  // RMS of ln(basis / full) over the sphere (channel mean), against_full
+  double full_ms = 0;            // the full model's render, against_full
+};
+CosineRenderResult render_cosine_png(const std::filesystem::path& paint_file, const std::filesystem::path& out_png,
+                                     const PreviewOptions& options, const std::filesystem::path& cache_dir,
+                                     bool against_full, const std::optional<std::filesystem::path>& hdr_out = std::nullopt);
+// RMS of ln(a / b) of the channel means over the pixels of `mask` where both are above 1e-6 of
+// b's largest value (the preview comparisons' measure).
+double preview_log_rms(const ImageF& a, const ImageF& b, const std::vector<std::uint8_t>& mask);
 
 // `paintlab render PAINT --out PNG [--hdr EXR]`: the preview sphere (render_preview) of a
 // paint file, written as tone-mapped PNG (and linear EXR when `hdr_out` is given).

@@ -55,6 +55,7 @@ class EnvironmentMap {
 
   int width() const { return rgb_.width(); }
   int height() const { return rgb_.height(); }
+  const ImageF& rgb() const { return rgb_; }  // the radiance, intensity applied
   // Radiance arriving from direction d (unit, preview world frame): the texel d falls into.
   brdf::Rgb radiance(const brdf::Vec3& d) const;
   // Samples a direction with probability proportional to texel luminance (times the
@@ -105,6 +106,10 @@ struct Preview {
 // preview pixel a surface cell, so the pattern stays put when the light moves).
 Preview render_preview(const brdf::Brdf& brdf, const PreviewOptions& options, const EnvironmentMap* env = nullptr,
                        const FlakeSparkle* sparkle = nullptr);
+
+// The last step of a preview: the peak, the exposure, the tone-mapped PNG on its grey
+// background (out.linear and out.mask filled).
+void finish_preview(Preview& out, const PreviewOptions& options);
 
 // The preview scene's geometry at pixel (x, y): the sphere point's normal (world frame)
 // and the light direction; false off the sphere. For tests and for documentation.
