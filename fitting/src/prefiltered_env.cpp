@@ -88,6 +88,7 @@ ImageF prefilter(const ImageF& full, double E, int max_height) {
         const double u = (ox + 0.5) / w;
         const Vec3 d = direction_of(u, (oy + 0.5) / h);
         Rgb sum = Rgb::Zero();
+        double weight = 0;
         for (int y = y0; y <= y1; ++y) {
           const double th = row_theta[static_cast<std::size_t>(y)];
           // The azimuth span of this row inside the lobe's cone: cos(alpha) = cos th cos td +
@@ -106,10 +107,14 @@ ImageF prefilter(const ImageF& full, double E, int max_height) {
             const double c = d.dot(dirs[static_cast<std::size_t>(y) * W + x]);
             if (c <= c_min || c <= 0) continue;
             const double k = std::pow(c, E) * row_solid[static_cast<std::size_t>(y)];
+            weight += k;
             for (int ch = 0; ch < 3; ++ch) sum[ch] += k * src.at(x, y, ch);
           }
         }
-        for (int ch = 0; ch < 3; ++ch) out.at(ox, oy, ch) = static_cast<float>(sum[ch]);
+        // The kernel normalised to its exact integral over the sphere, 2 pi / (E + 1): a lobe a
+        // few source texels wide is summed over few texels, whose weights do not add up to it.
+        const double norm = weight > 0 ? 2 * kPiEnv / (E + 1) / weight : 0.0;
+        for (int ch = 0; ch < 3; ++ch) out.at(ox, oy, ch) = static_cast<float>(sum[ch] * norm);
       }
     }
   });
@@ -136,20 +141,32 @@ ImageF read_map(const fs::path& file) {
 }  // namespace prefiltered_detail
 using namespace prefiltered_detail;
 
-Rgb PrefilteredEnvironment::lookup(const ImageF& map, const Vec3& d) {
+void PrefilteredEnvironment::uv_of(const Vec3& d, double* u, double* v) {
+  *u = std::atan2(d.x(), -d.z()) / (2 * kPiEnv) + 0.5;
+  *v = std::acos(std::clamp(d.y(), -1.0, 1.0)) / kPiEnv;
+}
+
+Rgb PrefilteredEnvironment::lookup_uv(const ImageF& map, double u, double v) {
   const int W = map.width(), H = map.height();
-  const double theta = std::acos(std::clamp(d.y(), -1.0, 1.0));
-  const double phi = std::atan2(d.x(), -d.z());
-  const double fx = (phi / (2 * kPiEnv) + 0.5) * W - 0.5, fy = theta / kPiEnv * H - 0.5;
+  const double fx = u * W - 0.5, fy = v * H - 0.5;
   const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
-  const double ax = fx - x0, ay = fy - y0;
+  const float ax = static_cast<float>(fx - x0), ay = static_cast<float>(fy - y0);
   const int xa = ((x0 % W) + W) % W, xb = (xa + 1) % W;
   const int ya = std::clamp(y0, 0, H - 1), yb = std::clamp(y0 + 1, 0, H - 1);
-  Rgb v;
+  const float* a0 = &map.at(xa, ya, 0);
+  const float* a1 = &map.at(xb, ya, 0);
+  const float* b0 = &map.at(xa, yb, 0);
+  const float* b1 = &map.at(xb, yb, 0);
+  Rgb out;
   for (int c = 0; c < 3; ++c)
-    v[c] = (1 - ay) * ((1 - ax) * map.at(xa, ya, c) + ax * map.at(xb, ya, c)) +
-           ay * ((1 - ax) * map.at(xa, yb, c) + ax * map.at(xb, yb, c));
-  return v;
+    out[c] = (1 - ay) * ((1 - ax) * a0[c] + ax * a1[c]) + ay * ((1 - ax) * b0[c] + ax * b1[c]);
+  return out;
+}
+
+Rgb PrefilteredEnvironment::lookup(const ImageF& map, const Vec3& d) {
+  double u, v;
+  uv_of(d, &u, &v);
+  return lookup_uv(map, u, v);
 }
 
 PrefilteredEnvironment PrefilteredEnvironment::build(const EnvironmentMap& env, const std::vector<double>& exponents) {
@@ -228,8 +245,10 @@ Preview render_preview_cosine(const brdf::CosineLobeParams& paint, const Preview
         if (env) {
           const Vec3 rv = 2 * nv * n - wo;
           v += paint.kd / kPiEnv * env->irradiance(n);
+          double u = 0, w = 0;
+          PrefilteredEnvironment::uv_of(rv, &u, &w);
           for (std::size_t i = 0; i < paint.exponents.size(); ++i)
-            v += (paint.kg[i] + nv * paint.kdd[i]) * env->lobe(i, rv);
+            v += (paint.kg[i] + nv * paint.kdd[i]) * PrefilteredEnvironment::lookup_uv(env->map(i + 1), u, w);
         }
         for (int c = 0; c < 3; ++c) out.linear.at(x, y, c) = static_cast<float>(v[c]);
       }

@@ -119,6 +119,24 @@ TEST(Preview, ToneMappingCurveAndAutoExposure) {
   EXPECT_EQ(srgb_encode(2.0), 255);
   EXPECT_EQ(srgb_encode(0.0031308 / 2), std::lround(12.92 * 0.0031308 / 2 * 255));
   EXPECT_EQ(srgb_encode(0.18), 118);  // mid grey: 1.055 * 0.18^(1/2.4) - 0.055 = 0.4614
+  // tone_map (a table of the codes' boundaries) gives srgb_encode's code for every value: spread
+  // over the range, and just either side of every boundary.
+  {
+    std::vector<float> values = {-1.0f, 0.0f, 1e-9f, 0.5f, 1.0f, 7.0f};
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> u(0.0, 1.1);
+    for (int i = 0; i < 20000; ++i) values.push_back(static_cast<float>(u(rng)));
+    for (int k = 1; k < 256; ++k) {
+      const double e = (k - 0.5) / 255.0;
+      const float lin = static_cast<float>(e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4));
+      for (float d = lin, j = 0; j < 3; ++j, d = std::nextafter(d, 0.0f)) values.push_back(d);
+      for (float d = lin, j = 0; j < 3; ++j, d = std::nextafter(d, 2.0f)) values.push_back(d);
+    }
+    ImageF img(static_cast<int>(values.size()), 1, 1);
+    for (std::size_t i = 0; i < values.size(); ++i) img.at(static_cast<int>(i), 0) = values[i];
+    const ImageU8 out = tone_map(img, 1.0);
+    for (std::size_t i = 0; i < values.size(); ++i) ASSERT_EQ(out.at(static_cast<int>(i), 0), srgb_encode(values[i])) << values[i];
+  }
   ImageF img(100, 1, 3, 0.0f);
   for (int x = 0; x < 100; ++x) img.at(x, 0, 1) = static_cast<float>(x + 1);  // 1..100 in green
   const double e = auto_exposure(img, {}, 99.0);

@@ -73,6 +73,13 @@ class EnvironmentMap {
   std::vector<double> texel_p_;   // probability of each texel
 };
 
+// An equirectangular map (height h, width 2h) of a clear day, for tests, benchmarks and the
+// docs' pictures when no measured map is at hand: a sky brightening from zenith (0.2, 0.3, 0.6)
+// to horizon (0.6, 0.7, 0.9), a grey-brown ground (0.12, 0.10, 0.08) and a sun of 2 deg
+// radius (radiance 2000 x (1, 0.95, 0.85), up and to the right in front of the preview sphere,
+// where the sphere mirrors it), linear radiance.
+ImageF sun_and_sky_map(int height);
+
 struct PreviewOptions {
   int size_px = 512;                // square image, >= 16
   double light_azimuth_deg = 40;    // from the camera direction towards +x, (-180, 180]
