@@ -2,6 +2,7 @@
 // docs/design.md)
 #include <filesystem>
 #include <fmt/format.h>
+#include <set>
 #include <spdlog/spdlog.h>
 
 #include "cli.h"
@@ -192,6 +193,19 @@ int run_interpolate(const LibraryArgs& a) {
   o.free_weights = a.free_weights;
   if (a.flakes_lightness_only) o.flake_colour = fit::FlakeColourMode::LightnessOnly;
   if (a.keep_flake_lightness) o.flake_colour = fit::FlakeColourMode::KeepLightness;
+  // Two library paints first: their transports come from (or go into) the library's cache.
+  std::set<std::string> from_library;
+  for (const std::string& p : a.parents)
+    for (const fit::LibraryEntry& e : lib.list())
+      if (e.name == p) from_library.insert(p);
+  o.first_pair = [&](const fit::AxfPaint& x, const fit::AxfPaint& y) {
+    if (!from_library.count(x.name) || !from_library.count(y.name)) return fit::interpolatable_paint(x, y);
+    bool cached = false;
+    fit::InterpolatablePaint m = lib.interpolatable(x.name, y.name, &cached);
+    spdlog::info("flake transports of '{}' and '{}': {}", x.name, y.name,
+                 cached ? "read from the library's cache" : "computed and cached in the library");
+    return m;
+  };
   const fit::RealisedPaint r = fit::interpolate_paints(parents, a.weights, o);
   for (const std::string& n : r.notes) spdlog::warn("{}", n);
   for (const std::string& c : r.clamped)

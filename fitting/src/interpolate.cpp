@@ -197,7 +197,88 @@ std::string weight_text(double w) { return fmt::format("{:g}", w); }
 
 }  // namespace
 
-InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b) {
+namespace {
+
+// The transports of one slice, read from a transports_to_json object (nullopt: not there).
+struct CachedSlices {
+  const Json* json = nullptr;
+  std::string where;
+  std::map<std::pair<int, int>, const Json*> by_bins;
+};
+
+// The flows of the slice pair (s, t) from the cache, checked against the clusters.
+FlakeTransport cached_transport(const CachedSlices& c, const FlakeSlice& s, const FlakeSlice& t) {
+  const std::string w = fmt::format("{}: slice ({}, {})", c.where, s.theta_f, s.theta_i);
+  const auto it = c.by_bins.find({s.theta_f, s.theta_i});
+  if (it == c.by_bins.end()) throw DataError(w + ": no transports (stored for other paints?)");
+  const Json& j = *it->second;
+  FlakeTransport tr;
+  const double stored = json_get<double>(j, "cost", w);
+  std::vector<double> out_a(s.clusters.size(), 0.0), in_b(t.clusters.size(), 0.0);
+  const Json& flows = j.at("flows");
+  if (!flows.is_array()) throw DataError(w + ": key 'flows': expected an array");
+  for (const Json& f : flows) {
+    if (!f.is_array() || f.size() != 3) throw DataError(w + ": key 'flows': expected [from, to, mass] entries");
+    const auto from = f[0].get<std::size_t>(), to = f[1].get<std::size_t>();
+    const double mass = f[2].get<double>();
+    if (from >= s.clusters.size() || to >= t.clusters.size() || !(mass >= 0))
+      throw DataError(fmt::format("{}: flow [{}, {}, {}] does not fit {} and {} clusters", w, from, to, mass,
+                                  s.clusters.size(), t.clusters.size()));
+    tr.flows.push_back({from, to, mass});
+    out_a[from] += mass;
+    in_b[to] += mass;
+    const auto& x = s.clusters[from].mean;
+    const auto& y = t.clusters[to].mean;
+    tr.cost += mass * std::sqrt((x.L - y.L) * (x.L - y.L) + (x.a - y.a) * (x.a - y.a) + (x.b - y.b) * (x.b - y.b));
+  }
+  for (std::size_t k = 0; k < out_a.size(); ++k)
+    if (std::abs(out_a[k] - s.clusters[k].probability) > 1e-6)
+      throw DataError(fmt::format("{}: the flows out of cluster {} carry {:.9g}, its probability is {:.9g}", w, k,
+                                  out_a[k], s.clusters[k].probability));
+  for (std::size_t k = 0; k < in_b.size(); ++k)
+    if (std::abs(in_b[k] - t.clusters[k].probability) > 1e-6)
+      throw DataError(fmt::format("{}: the flows into cluster {} carry {:.9g}, its probability is {:.9g}", w, k,
+                                  in_b[k], t.clusters[k].probability));
+  if (std::abs(tr.cost - stored) > 1e-9 * std::max(1.0, std::abs(stored)))
+    throw DataError(fmt::format("{}: stored cost {:.12g} is not the flows' cost {:.12g}", w, stored, tr.cost));
+  return tr;
+}
+
+InterpolatablePaint build_interpolatable(const AxfPaint& a, const AxfPaint& b, const CachedSlices* cache);
+
+}  // namespace
+
+InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b) { return build_interpolatable(a, b, nullptr); }
+
+InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b, const Json& transports,
+                                         const std::string& where) {
+  if (!transports.is_object() || json_get<std::string>(transports, "format", where) != kTransportsFormat)
+    throw DataError(where + ": not a " + std::string(kTransportsFormat) + " object");
+  if (const int v = json_get<int>(transports, "version", where); v != 1)
+    throw DataError(fmt::format("{}: version {} (this paintlab reads 1)", where, v));
+  CachedSlices c;
+  c.json = &transports;
+  c.where = where;
+  const Json& slices = transports.at("slices");
+  if (!slices.is_array()) throw DataError(where + ": key 'slices': expected an array");
+  for (const Json& j : slices) c.by_bins[{json_get<int>(j, "theta_f", where), json_get<int>(j, "theta_i", where)}] = &j;
+  return build_interpolatable(a, b, &c);
+}
+
+Json transports_to_json(const InterpolatablePaint& m) {
+  Json slices = Json::array();
+  for (const InterpolatableSlice& s : m.slices) {
+    // Every slice (one with colours in one paint only is never read back: nothing was computed).
+    Json flows = Json::array();
+    for (const auto& c : s.clusters) flows.push_back({c.from_index, c.to_index, c.mass});
+    slices.push_back({{"theta_f", s.theta_f}, {"theta_i", s.theta_i}, {"cost", s.transport_cost}, {"flows", flows}});
+  }
+  return {{"format", kTransportsFormat}, {"version", 1}, {"slices", slices}};
+}
+
+namespace {
+
+InterpolatablePaint build_interpolatable(const AxfPaint& a, const AxfPaint& b, const CachedSlices* cache) {
   const std::string pair = fmt::format("'{}' and '{}'", a.name, b.name);
   if (a.colour_space != b.colour_space)
     throw DataError(fmt::format("interpolation of {}: their values are in different colour spaces ({} and {}); "
@@ -267,7 +348,7 @@ InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b) {
     is.b.clusters.clear();
     is.b.inverse_cdf.clear();
     if (!s.clusters.empty() && !t.clusters.empty()) {
-      const FlakeTransport tr = flake_transport(s.clusters, t.clusters);
+      const FlakeTransport tr = cache ? cached_transport(*cache, s, t) : flake_transport(s.clusters, t.clusters);
       is.transport_cost = tr.cost;
       for (const FlakeTransport::Flow& f : tr.flows)
         is.clusters.push_back({s.clusters[f.from], t.clusters[f.to], f.from, f.to, f.mass});
@@ -285,6 +366,8 @@ InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b) {
   });
   return m;
 }
+
+}  // namespace
 
 RealisedPaint realise(const InterpolatablePaint& m, double wa, double wb, bool flake_btf, FlakeColourMode mode) {
   if (!std::isfinite(wa) || !std::isfinite(wb)) throw DataError("interpolation: the weights must be finite numbers");
@@ -354,7 +437,8 @@ RealisedPaint interpolate_paints(const std::vector<AxfPaint>& parents, const std
       throw DataError(fmt::format("--weights: the {} largest weights sum to 0: no paint to start the transports from "
                                   "(with --free-weights, give weights of a positive sum)",
                                   k + 1));
-    const InterpolatablePaint m = interpolatable_paint(current, parents[order[k]]);
+    const InterpolatablePaint m = k == 1 && options.first_pair ? options.first_pair(current, parents[order[k]])
+                                                               : interpolatable_paint(current, parents[order[k]]);
     notes.insert(notes.end(), m.notes.begin(), m.notes.end());
     r = realise(m, s / scale, weights[order[k]] / scale, last, options.flake_colour);
     clamped.insert(clamped.end(), r.clamped.begin(), r.clamped.end());

@@ -17,6 +17,8 @@
 #include "paintlab/core/atomic_file.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/hash.h"
+#include "paintlab/core/json.h"
+#include "paintlab/core/log.h"
 #include "paintlab/core/version.h"
 
 namespace fs = std::filesystem;
@@ -27,6 +29,7 @@ namespace {
 
 constexpr const char* kLockFile = ".lock";
 constexpr const char* kPaintSuffix = ".axf.h5";
+constexpr const char* kTransportsDir = "transports";  // interpolatable(): cached flake transports
 
 // A name `add` gives a paint's file: NAME.ID.axf.h5 (a paint name, a number).
 bool is_library_file_name(const std::string& n) {
@@ -380,6 +383,7 @@ LibraryEntry PaintLibrary::commit_added(Index& idx, std::vector<LibraryEntry>::i
     std::error_code ec;
     fs::remove(dir_ / *old_file, ec);  // a leftover is reported by check() and removed by the next change
     step("old-file-removed");
+    remove_leftovers(idx);  // the replaced file's cached transports
   }
   return entry;
 }
@@ -394,7 +398,46 @@ int PaintLibrary::remove_leftovers(const Index& idx) const {
     if (!is_library_file_name(n) || named.count(n)) continue;
     if (fs::remove(d.path(), ec)) ++removed;
   }
+  // Cached transports of a paint file no longer in the index (removed or replaced).
+  for (const auto& d : fs::directory_iterator(dir_ / kTransportsDir, ec)) {
+    const std::string n = d.path().stem().string();
+    const auto plus = n.find('+');
+    if (plus == std::string::npos || !named.count(n.substr(0, plus)) || !named.count(n.substr(plus + 1)))
+      fs::remove(d.path(), ec);
+  }
   return removed;
+}
+
+InterpolatablePaint PaintLibrary::interpolatable(const std::string& a, const std::string& b, bool* from_cache) const {
+  const LibraryEntry ea = find(a), eb = find(b);
+  const AxfPaint pa = load(a), pb = load(b);  // checksums checked
+  const fs::path file = dir_ / kTransportsDir / (ea.file + "+" + eb.file + ".json");
+  if (from_cache) *from_cache = false;
+  std::error_code ec;
+  if (fs::is_regular_file(file, ec)) {
+    try {
+      const Json j = read_json_file(file);
+      if (j.value("a_sha256", "") == ea.sha256 && j.value("b_sha256", "") == eb.sha256) {
+        InterpolatablePaint m = interpolatable_paint(pa, pb, j.at("transports"), file.string());
+        if (from_cache) *from_cache = true;
+        return m;
+      }
+    } catch (const std::exception& e) {
+      spdlog::warn("cached transports {}: {} (computed again)", file.string(), e.what());
+    }
+  }
+  InterpolatablePaint m = interpolatable_paint(pa, pb);
+  try {
+    fs::create_directories(file.parent_path());
+    write_json_file(file, {{"a", ea.file},
+                           {"a_sha256", ea.sha256},
+                           {"b", eb.file},
+                           {"b_sha256", eb.sha256},
+                           {"transports", transports_to_json(m)}});
+  } catch (const std::exception& e) {
+    spdlog::warn("transports of '{}' and '{}' not cached: {}", a, b, e.what());
+  }
+  return m;
 }
 
 void PaintLibrary::remove(const std::string& name) {
@@ -413,6 +456,7 @@ void PaintLibrary::remove(const std::string& name) {
   std::error_code ec;
   fs::remove(dir_ / file, ec);
   step("file-removed");
+  remove_leftovers(idx);  // its cached transports
 }
 
 void PaintLibrary::export_h5(const fs::path& file) const {

@@ -96,6 +96,7 @@ TEST(CosineLobes, FitRecoversACosineLobePaint) {
     }
   }
   EXPECT_THROW(fit_cosine_lobes(brdf::CosineLobes(p), {40, 3}), UsageError);
+  EXPECT_EQ(cosine_fit_geometries().size(), 729u);  // as docs/design.md states
 }
 
 // The library of the tests: three measured-paint shapes of paints/ (Cook-Torrance, one of

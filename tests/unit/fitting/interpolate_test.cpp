@@ -341,6 +341,74 @@ TEST(Interpolation, BadInputIsRefusedWithTheReason) {
   EXPECT_THAT(m.notes[0], HasSubstr("flake slice (1, 1) measured in 'silver' only: left out"));
 }
 
+TEST(Interpolation, TransportsReadBackEqualTheComputedOnesAndForeignOnesAreRefused) {
+  const AxfPaint a = paint("silver", 1.0, 3.0, 1), b = paint("gold", 1.3, 12.0, 7);
+  const InterpolatablePaint m = interpolatable_paint(a, b);
+  const Json j = Json::parse(transports_to_json(m).dump());  // through text, as the cache file
+  const InterpolatablePaint back = interpolatable_paint(a, b, j, "cache.json");
+  ASSERT_EQ(back.slices.size(), m.slices.size());
+  for (std::size_t k = 0; k < m.slices.size(); ++k) {
+    EXPECT_NEAR(back.slices[k].transport_cost, m.slices[k].transport_cost, 1e-12);
+    ASSERT_EQ(back.slices[k].clusters.size(), m.slices[k].clusters.size());
+    for (std::size_t c = 0; c < m.slices[k].clusters.size(); ++c) {
+      EXPECT_EQ(back.slices[k].clusters[c].from_index, m.slices[k].clusters[c].from_index);
+      EXPECT_EQ(back.slices[k].clusters[c].to_index, m.slices[k].clusters[c].to_index);
+      EXPECT_EQ(back.slices[k].clusters[c].mass, m.slices[k].clusters[c].mass);
+      EXPECT_EQ(back.slices[k].clusters[c].from.mean, m.slices[k].clusters[c].from.mean);
+    }
+  }
+  expect_same_paint(realise(back, 0.3, 0.7).paint, realise(m, 0.3, 0.7).paint);
+  // The transports of two other paints: a cluster's flows do not carry its probability.
+  const AxfPaint c = paint("bronze", 1.1, 20.0, 11);
+  EXPECT_THAT(test::error_message<DataError>([&] { interpolatable_paint(a, c, j, "cache.json"); }),
+              HasSubstr("cache.json: slice (0, 1)"));
+  Json bad = j;
+  bad["slices"][0]["cost"] = bad["slices"][0]["cost"].get<double>() + 1.0;
+  EXPECT_THAT(test::error_message<DataError>([&] { interpolatable_paint(a, b, bad, "cache.json"); }),
+              HasSubstr("is not the flows' cost"));
+  bad = j;
+  bad["slices"][0]["flows"][0][0] = 999;
+  EXPECT_THAT(test::error_message<DataError>([&] { interpolatable_paint(a, b, bad, "cache.json"); }),
+              HasSubstr("does not fit"));
+}
+
+TEST(Interpolation, ALibraryCachesTheTransportsOfItsPaints) {
+  test::TempDir tmp;
+  PaintLibrary l = PaintLibrary::open(tmp / "lib", true);
+  l.add(paint("silver", 1.0, 3.0, 1), false);
+  l.add(paint("gold", 1.3, 12.0, 7), false);
+  l.add(paint("bronze", 1.1, 20.0, 11), false);
+  bool cached = true;
+  const InterpolatablePaint first = l.interpolatable("silver", "gold", &cached);
+  EXPECT_FALSE(cached);
+  const InterpolatablePaint again = l.interpolatable("silver", "gold", &cached);
+  EXPECT_TRUE(cached);
+  expect_same_paint(realise(again, 0.5, 0.5).paint, realise(first, 0.5, 0.5).paint);
+  l.interpolatable("gold", "bronze", &cached);
+  EXPECT_FALSE(cached);
+  auto count = [&] {
+    int n = 0;
+    for (const auto& e : std::filesystem::directory_iterator(tmp / "lib" / "transports")) n += e.is_regular_file();
+    return n;
+  };
+  EXPECT_EQ(count(), 2);
+  EXPECT_TRUE(l.check().empty());
+  // A damaged cache file is computed again (and rewritten).
+  for (const auto& e : std::filesystem::directory_iterator(tmp / "lib" / "transports")) test::write_text(e.path(), "{");
+  l.interpolatable("silver", "gold", &cached);
+  EXPECT_FALSE(cached);
+  l.interpolatable("silver", "gold", &cached);
+  EXPECT_TRUE(cached);
+  // Replacing gold drops both of its caches; removing silver drops its own.
+  l.add(paint("gold", 1.2, 14.0, 8), true);
+  EXPECT_EQ(count(), 0);
+  l.interpolatable("silver", "bronze", &cached);
+  EXPECT_FALSE(cached);
+  EXPECT_EQ(count(), 1);
+  l.remove("silver");
+  EXPECT_EQ(count(), 0);
+}
+
 TEST(InterpolationCli, InterpolatesPaintsOfALibrary) {
   test::TempDir tmp;
   const std::string lib = (tmp / "lib").string();
@@ -353,6 +421,7 @@ TEST(InterpolationCli, InterpolatesPaintsOfALibrary) {
   auto r = test::run_paintlab("library interpolate --dir " + lib + " silver gold --weights 0.75,0.25 --out " + out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("wrote " + out + " (interpolation: silver 0.75, gold 0.25)"));
+  EXPECT_THAT(r.err, HasSubstr("flake transports of 'silver' and 'gold': computed and cached in the library"));
   const AxfPaint mix = read_axf_file(out);
   EXPECT_EQ(mix.name, "silver-75-gold-25");
   EXPECT_NEAR(mix.cook_torrance->params.lobes[1].m, 0.75 * 0.16 + 0.25 * 0.208, 1e-12);
@@ -363,6 +432,7 @@ TEST(InterpolationCli, InterpolatesPaintsOfALibrary) {
                          "--name hue-of-silver --out " + (tmp / "hue.axf.h5").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(read_axf_file(tmp / "hue.axf.h5").name, "hue-of-silver");
+  EXPECT_THAT(r.err, HasSubstr("flake transports of 'silver' and 'gold': read from the library's cache"));
   // Extrapolation far out: written, with what was clamped.
   r = test::run_paintlab("library interpolate --dir " + lib + " silver gold --weights=20,-19 --name far --out " +
                          (tmp / "far.axf.h5").string());

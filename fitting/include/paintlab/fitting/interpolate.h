@@ -9,8 +9,11 @@
 // weights (wA, wB) is then a few multiply-adds per cluster. Weights outside [0, 1] extrapolate;
 // three or more paints interpolate by iterated transport (their section 4.3): the first two,
 // then the result with the third, and so on.
+#include <functional>
 #include <string>
 #include <vector>
+
+#include "paintlab/core/json.h"
 
 #include "paintlab/fitting/axf_file.h"
 #include "paintlab/fitting/flakes.h"
@@ -47,6 +50,18 @@ struct InterpolatablePaint {
 // ior), or flakes in one paint only.
 InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b);
 
+// The part of an interpolatable paint that costs (the transports; the rest is the parents'):
+// {"format": "paintlab-flake-transports", "version": 1, "slices": [{"theta_f", "theta_i",
+// "cost", "flows": [[from, to, mass], ...]}, ...]}, one entry per slice with colours in both.
+inline constexpr const char* kTransportsFormat = "paintlab-flake-transports";
+Json transports_to_json(const InterpolatablePaint& m);
+// interpolatable_paint with the transports read from `transports` (transports_to_json's object)
+// instead of computed: the same checks, and DataError naming `where` when they do not belong to
+// these two paints (a slice missing, a cluster index out of range, a cluster's flows not
+// carrying its probability, the stored cost not the flows' cost).
+InterpolatablePaint interpolatable_paint(const AxfPaint& a, const AxfPaint& b, const Json& transports,
+                                         const std::string& where);
+
 // How the flake clusters' colours interpolate (the paper's section 4.4): all of CIELAB, only
 // their lightness L* (a*, b* stay the first paint's: `--flakes-lightness-only`), or all but
 // their lightness (L* stays the first paint's: `--keep-flake-lightness`).
@@ -73,6 +88,9 @@ struct InterpolateOptions {
   // With a mode other than All the first paint leads the iterated transports (its flakes'
   // hue or lightness is what is kept); the rest follow by falling weight.
   FlakeColourMode flake_colour = FlakeColourMode::All;
+  // Makes the first pair's interpolatable paint (default: interpolatable_paint): a library
+  // hands out its cached transports here (PaintLibrary::interpolatable).
+  std::function<InterpolatablePaint(const AxfPaint&, const AxfPaint&)> first_pair = {};
 };
 // Any number (2 to 5) of parents: iterated transport, the paints taken in order of falling
 // weight (the first paint first with a flake colour mode). DataError naming --weights when the weights are not one per paint, or do not sum to

@@ -16,6 +16,7 @@
 #include "paintlab/core/colour.h"
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/axf_file.h"
+#include "paintlab/fitting/interpolate.h"
 
 namespace paintlab::fit {
 
@@ -99,6 +100,13 @@ class PaintLibrary {
   // A folder of AxF-like files <name>.axf.h5. Existing files are refused (IoError naming
   // them, nothing written) unless `overwrite`.
   std::vector<std::filesystem::path> export_folder(const std::filesystem::path& folder, bool overwrite) const;
+
+  // The interpolatable material of two of its paints (interpolate.h), computed once: the flake
+  // transports are kept in transports/FILE_A+FILE_B.json (the two paint files' names, and their
+  // checksums inside) and read back while both files are the same; computed and stored otherwise
+  // (atomically; a cache that cannot be written is only a warning). *from_cache tells which.
+  // Removing or replacing a paint removes its cached transports.
+  InterpolatablePaint interpolatable(const std::string& a, const std::string& b, bool* from_cache = nullptr) const;
 
   // Findings a technician should know: files named by the index that are missing or
   // changed, and paint files the index does not name (left by an interrupted add).
