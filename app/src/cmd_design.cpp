@@ -6,7 +6,10 @@
 #include "cli.h"
 #include "paintlab/core/error.h"
 #include "paintlab/core/log.h"
+#include "paintlab/brdf/paint.h"
 #include "paintlab/fitting/axf_file.h"
+#include "paintlab/fitting/export.h"
+#include "paintlab/fitting/multiangle.h"
 #include "paintlab/fitting/cosine_lobes.h"
 #include "paintlab/fitting/output_guard.h"
 #include "paintlab/fitting/paint_library.h"
@@ -44,6 +47,7 @@ struct DesignArgs {
   std::string basis;
   std::string dir;
   std::string name;
+  std::string like;
   bool json = false;
 };
 
@@ -92,14 +96,25 @@ int run_design(const DesignArgs& a) {
     throw UsageError(fmt::format("basis {} does not exist (make it with paintlab basis fit --dir LIBRARY)",
                                  basis_file.string()));
   const fit::CosineBasis basis = fit::read_cosine_basis(basis_file);
-  const fit::DesignResult r = fit::design_paint(basis.exponents, targets.targets);
+  // --like: the lobes no target sees take this paint's weights (its own cosine-lobe form when it
+  // has one for these exponents, else fitted now).
+  std::optional<brdf::CosineLobeParams> like;
+  if (!a.like.empty()) {
+    const fit::AxfPaint p = fit::load_any_paint(fit::resolve_paint_input(a.like, a.dir));
+    if (p.cosine_lobes && p.cosine_lobes->exponents == basis.exponents)
+      like = *p.cosine_lobes;
+    else
+      like = fit::fit_cosine_lobes(*brdf::make_brdf(p.paint_spec()), basis.exponents).params;
+  }
+  const fit::DesignResult r = fit::design_paint(basis.exponents, targets.targets, like ? &*like : nullptr);
 
   fit::AxfPaint paint;
   paint.name = a.name.empty() ? targets.name : a.name;
   paint.model = "cosine-lobes";
   paint.colour_space = colour::kLinearSrgb;
   paint.cosine_lobes = r.params;
-  paint.provenance.source = fmt::format("paintlab design --targets {} (basis {})", a.targets, basis_file.string());
+  paint.provenance.source = fmt::format("paintlab design --targets {} (basis {}{})", a.targets, basis_file.string(),
+                                        a.like.empty() ? "" : ", unseen lobes like " + a.like);
   fit::write_axf_file(a.out, paint);
   if (a.json) {
     Json j = fit::design_json(r);
@@ -140,6 +155,8 @@ void register_design_commands(CLI::App& app) {
   d->add_option("--out", da->out, "The designed paint (.axf.h5)")->required();
   d->add_option("--basis", da->basis, "The cosine-lobe basis (basis.json)");
   d->add_option("--dir", da->dir, "A paint library whose basis.json to use");
+  d->add_option("--like", da->like,
+                "A paint (library name or file) whose lobes the targets do not see (its clear coat) the design keeps");
   d->add_option("--name", da->name, "Paint name (default: the targets file's name, else 'designed')")->check(utf8_text());
   d->add_flag("--json", da->json, "Print the result as JSON");
 }

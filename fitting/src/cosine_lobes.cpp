@@ -494,13 +494,18 @@ bool DesignResult::all_reached() const {
   return std::all_of(angles.begin(), angles.end(), [](const DesignAngle& a) { return a.reached; });
 }
 
-DesignResult design_paint(const std::vector<double>& exponents, const std::vector<DesignTarget>& targets) {
+DesignResult design_paint(const std::vector<double>& exponents, const std::vector<DesignTarget>& targets,
+                          const brdf::CosineLobeParams* like) {
   if (targets.empty()) throw UsageError("design: no targets");
+  if (like && like->exponents != exponents)
+    throw UsageError(fmt::format("design: the paint to take unseen lobes from has {} exponents other than the basis's {}",
+                                 like->exponents.size(), exponents.size()));
   std::vector<DirectionPair> at;
   for (const auto& t : targets) at.push_back({t.geometry.towards_light(), t.geometry.towards_viewer()});
   // The reflectance factor R = pi f of each column at each target geometry.
-  const Eigen::MatrixXd A = kPi * cosine_lobe_columns(at, exponents);
+  Eigen::MatrixXd A = kPi * cosine_lobe_columns(at, exponents);
   const auto g = static_cast<Eigen::Index>(targets.size());
+  const auto n = static_cast<Eigen::Index>(exponents.size());
   Eigen::MatrixXd R(g, 3);
   std::vector<std::string> gamut(targets.size());
   for (Eigen::Index k = 0; k < g; ++k) {
@@ -511,21 +516,48 @@ DesignResult design_paint(const std::vector<double>& exponents, const std::vecto
           "outside the sRGB gamut (linear R, G, B {:.3f}, {:.3f}, {:.3f}): non-negative weights cannot make it", rgb[0],
           rgb[1], rgb[2]);
   }
+  const Eigen::VectorXd albedo = cosine_lobe_albedo(exponents);
+  // Unseen lobes: out of the programme, their weights from `like` (or 0), their contribution at
+  // the targets and their albedo taken off what the programme may use.
+  std::array<Eigen::VectorXd, 3> fixed;
+  for (auto& f : fixed) f = Eigen::VectorXd::Zero(1 + 2 * n);
+  std::vector<std::string> notes;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    double seen = 0;
+    for (const auto& [wi, wo] : at) seen = std::max(seen, brdf::cosine_lobe(exponents[static_cast<std::size_t>(i)], wi, wo));
+    if (seen >= kUnseenLobe) continue;
+    for (int c = 0; c < 3; ++c) {
+      if (like) {
+        fixed[static_cast<std::size_t>(c)][1 + i] = like->kg[static_cast<std::size_t>(i)][c];
+        fixed[static_cast<std::size_t>(c)][1 + n + i] = like->kdd[static_cast<std::size_t>(i)][c];
+      }
+    }
+    notes.push_back(fmt::format("exponent {:.4g}: no target sees its lobe (at most {:.1e} of its peak); {}",
+                                exponents[static_cast<std::size_t>(i)], seen,
+                                like ? "its weights are the --like paint's"
+                                     : "left at 0 (give --like PAINT to keep a measured paint's lobe there, e.g. its "
+                                       "clear coat)"));
+    A.col(1 + i).setZero();
+    A.col(1 + n + i).setZero();
+  }
   // At most 1 of albedo at normal incidence per channel, and among equally close solutions the
   // one of least albedo (1e-6 of the objective's scale: it never trades an error for it).
-  const Eigen::VectorXd albedo = cosine_lobe_albedo(exponents);
   const Eigen::MatrixXd C = albedo.transpose();
-  const Eigen::VectorXd one = Eigen::VectorXd::Ones(1);
+  const Eigen::MatrixXd At = kPi * cosine_lobe_columns(at, exponents);  // with the unseen columns
   const Eigen::VectorXd tie = 1e-6 * albedo;
   const auto start = std::chrono::steady_clock::now();
   std::array<Eigen::VectorXd, 3> x;
   for (int c = 0; c < 3; ++c) {
+    const auto cc = static_cast<std::size_t>(c);
+    const Eigen::VectorXd target = R.col(c) - At * fixed[cc];
     const Eigen::VectorXd w = (R.col(c).array() + 0.01).inverse().matrix();
-    x[static_cast<std::size_t>(c)] = nonnegative_l1(w.asDiagonal() * A, w.cwiseProduct(R.col(c)), tie, C, one);
+    const Eigen::VectorXd room = Eigen::VectorXd::Constant(1, std::max(0.0, 1.0 - albedo.dot(fixed[cc])));
+    x[cc] = nonnegative_l1(w.asDiagonal() * A, w.cwiseProduct(target), tie, C, room) + fixed[cc];
   }
   DesignResult r;
   r.solve_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   r.params = params_from(exponents, x);
+  r.notes = std::move(notes);
   const brdf::CosineLobes model(r.params);
   for (std::size_t k = 0; k < targets.size(); ++k) {
     DesignAngle a;
@@ -550,6 +582,7 @@ std::string design_table(const DesignResult& r) {
     s += fmt::format("{:<9} {:>7.2f} {:>7.2f} {:>8.2f}  {:>7.2f} {:>7.2f} {:>8.2f}  {:>6.2f}  {}\n",
                      a.target.geometry.name, a.target.lab.L, a.target.lab.a, a.target.lab.b, a.achieved.L, a.achieved.a,
                      a.achieved.b, a.de00, a.reached ? "reached" : "NOT REACHED: " + a.why);
+  for (const auto& n : r.notes) s += n + "\n";
   s += fmt::format("solve: {:.2f} ms (three linear programmes, {} lobes)\n", r.solve_ms, r.params.exponents.size());
   return s;
 }
@@ -569,6 +602,7 @@ Json design_json(const DesignResult& r) {
           {"all_reached", r.all_reached()},
           {"solve_ms", r.solve_ms},
           {"exponents", r.params.exponents},
+          {"notes", r.notes},
           {"targets", angles}};
 }
 

@@ -203,6 +203,30 @@ TEST(CosineDesign, ReachableTargetsAreHitWithinHalfADeltaE) {
   }
 }
 
+TEST(CosineDesign, LobesNoTargetSeesComeFromTheLikePaint) {
+  // 45as15 .. 45as110 are 15 deg and more from the gloss: the 800 and 3600 lobes (a clear coat)
+  // see nothing there. Without --like they stay 0; with it they are the red metallic's.
+  const auto targets = targets_of(*paint("silver-metallic.toml"), "astm-e2194");
+  const DesignResult bare = design_paint(kExponents, targets);
+  const auto red = fit_cosine_lobes(*paint("red-metallic.toml"), kExponents).params;
+  const DesignResult like = design_paint(kExponents, targets, &red);
+  ASSERT_EQ(bare.notes.size(), 2u);
+  EXPECT_THAT(bare.notes[0], HasSubstr("exponent 800: no target sees its lobe"));
+  EXPECT_THAT(bare.notes[0], HasSubstr("left at 0"));
+  EXPECT_THAT(like.notes[1], HasSubstr("the --like paint's"));
+  for (std::size_t i : {4u, 5u})
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(bare.params.kg[i][c], 0.0);
+      EXPECT_EQ(like.params.kg[i][c], red.kg[i][c]);
+      EXPECT_EQ(like.params.kdd[i][c], red.kdd[i][c]);
+    }
+  EXPECT_TRUE(bare.all_reached());
+  EXPECT_TRUE(like.all_reached());  // the rest fitted around the kept gloss
+  EXPECT_GT(red.kg[5].maxCoeff() + red.kg[4].maxCoeff(), 0.0);  // the red's clear coat is there to keep
+  const auto other = fit_cosine_lobes(*paint("red-metallic.toml"), {2, 40, 800}).params;
+  EXPECT_THROW(design_paint(kExponents, targets, &other), UsageError);
+}
+
 TEST(CosineDesign, UnreachableTargetsAreReportedWithTheReason) {
   auto t = targets_of(*paint("red-metallic.toml"), "astm-e2194");  // 45as15, 45as45, 45as110
   // A reverse flop: lighter far from the gloss than near it. Every lobe falls away from the

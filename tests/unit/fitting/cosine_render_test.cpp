@@ -157,6 +157,11 @@ TEST(CosineCli, BasisFitDesignExportAndRender) {
   EXPECT_TRUE(j["all_reached"].get<bool>());
   for (const auto& t : j["targets"]) EXPECT_LE(t["de00"].get<double>(), kDesignToleranceDe00);
   EXPECT_LT(j["solve_ms"].get<double>(), 10.0);
+  EXPECT_THAT(j["notes"].dump(), HasSubstr("left at 0"));  // its clear coat: no target near the gloss
+  r = test::run_paintlab("design --targets " + (tmp / "t.toml").string() + " --dir " + lib.string() +
+                         " --like red-metallic --out " + (tmp / "like.axf.h5").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("the --like paint's"));
   const AxfPaint designed = read_axf_file(tmp / "new.axf.h5");
   EXPECT_EQ(designed.model, "cosine-lobes");
   EXPECT_EQ(designed.name, "new-red");

@@ -155,8 +155,13 @@ struct DesignResult {
   brdf::CosineLobeParams params;
   std::vector<DesignAngle> angles;
   double solve_ms = 0;  // the three linear programmes
+  // The lobes no target sees (at most kUnseenLobe of their peak at every target geometry), and
+  // where their weights came from (`like`, or 0), one line each.
+  std::vector<std::string> notes;
   bool all_reached() const;
 };
+
+inline constexpr double kUnseenLobe = 1e-3;
 
 // The basis weights (per channel, >= 0) whose CIELAB at the targets' geometries is closest to
 // the targets: the L1 linear programme over the relative error of each target's linear sRGB
@@ -164,7 +169,12 @@ struct DesignResult {
 // normal incidence at most 1 per channel (else a narrow lobe's far tail could hit a target with
 // an absurd weight whose gloss no paint has) and a tie-break towards the least albedo. Targets outside the sRGB gamut (a negative linear channel) are
 // aimed at their gamut's edge and reported.
-DesignResult design_paint(const std::vector<double>& exponents, const std::vector<DesignTarget>& targets);
+// Lobes no target sees (a clear coat's, for targets away from the gloss) take the weights of
+// `like` (a paint's cosine-lobe form for the same exponents: `design --like PAINT` keeps a measured
+// paint's gloss), else 0; the programme fits the rest with the unseen lobes' small contribution at
+// the targets subtracted and their albedo counted. UsageError when `like` has other exponents.
+DesignResult design_paint(const std::vector<double>& exponents, const std::vector<DesignTarget>& targets,
+                          const brdf::CosineLobeParams* like = nullptr);
 
 // The result as a table for people (target, achieved, dE00, reached or why not) and as JSON.
 std::string design_table(const DesignResult& r);
