@@ -53,9 +53,9 @@ struct DesignArgs {
 
 int run_basis_fit(const BasisFitArgs& a) {
   const fs::path out = a.out.empty() ? fs::path(a.dir) / "basis.json" : fs::path(a.out);
+  const fit::PaintLibrary library = fit::PaintLibrary::open(a.dir, false);  // "no library here" before anything else
   // The library's basis.json is the library's own: basis fit may write it (as library add its paints).
   fit::OutputGuard().output({"--out", out}, fs::path(a.dir)).check();
-  const fit::PaintLibrary library = fit::PaintLibrary::open(a.dir, false);
   std::vector<std::pair<std::string, std::shared_ptr<const brdf::Brdf>>> paints;
   for (const fit::LibraryEntry& e : library.list())
     paints.emplace_back(e.name, brdf::make_brdf(library.load(e.name).paint_spec()));
