@@ -2,7 +2,6 @@
 // docs/design.md)
 #include <filesystem>
 #include <fmt/format.h>
-#include <set>
 #include <spdlog/spdlog.h>
 
 #include "cli.h"
@@ -175,9 +174,11 @@ int run_interpolate(const LibraryArgs& a) {
   guard.output({"--out", a.out});
   const fit::PaintLibrary lib = fit::PaintLibrary::open(a.dir, false);
   std::vector<fit::AxfPaint> parents;
+  std::vector<bool> is_library;
   for (const std::string& p : a.parents) {
     bool in_library = false;
     for (const fit::LibraryEntry& e : lib.list()) in_library = in_library || e.name == p;
+    is_library.push_back(in_library);
     if (in_library) {
       parents.push_back(lib.load(p));  // its checksum checked
     } else if (fs::exists(p)) {
@@ -193,15 +194,19 @@ int run_interpolate(const LibraryArgs& a) {
   o.free_weights = a.free_weights;
   if (a.flakes_lightness_only) o.flake_colour = fit::FlakeColourMode::LightnessOnly;
   if (a.keep_flake_lightness) o.flake_colour = fit::FlakeColourMode::KeepLightness;
-  // Two library paints first: their transports come from (or go into) the library's cache.
-  std::set<std::string> from_library;
-  for (const std::string& p : a.parents)
-    for (const fit::LibraryEntry& e : lib.list())
-      if (e.name == p) from_library.insert(p);
+  // Two library paints first: their transports come from (or go into) the library's cache. A
+  // paint counts as the library's when it is the very paint read from it (a file whose paint
+  // bears a library paint's name is not).
+  auto library_name = [&](const fit::AxfPaint& x) -> const std::string* {
+    for (std::size_t k = 0; k < parents.size(); ++k)
+      if (is_library[k] && parents[k] == x) return &a.parents[k];
+    return nullptr;
+  };
   o.first_pair = [&](const fit::AxfPaint& x, const fit::AxfPaint& y) {
-    if (!from_library.count(x.name) || !from_library.count(y.name)) return fit::interpolatable_paint(x, y);
+    const std::string *nx = library_name(x), *ny = library_name(y);
+    if (!nx || !ny) return fit::interpolatable_paint(x, y);
     bool cached = false;
-    fit::InterpolatablePaint m = lib.interpolatable(x.name, y.name, &cached);
+    fit::InterpolatablePaint m = lib.interpolatable(*nx, *ny, &cached);
     spdlog::info("flake transports of '{}' and '{}': {}", x.name, y.name,
                  cached ? "read from the library's cache" : "computed and cached in the library");
     return m;

@@ -86,9 +86,15 @@ std::vector<double> sorted_exponents(const Eigen::VectorXd& log_e) {
     e[static_cast<std::size_t>(i)] =
         std::clamp(std::exp(log_e[i]), brdf::kMinLobeExponent, brdf::kMaxLobeExponent);
   std::sort(e.begin(), e.end());
-  // Equal exponents are one lobe twice: part them so the set stays strictly increasing.
-  for (std::size_t i = 1; i < e.size(); ++i)
-    if (!(e[i] > e[i - 1] * 1.0001)) e[i] = e[i - 1] * 1.0001;
+  // Equal exponents are one lobe twice: part them so the set stays strictly increasing, within
+  // [kMinLobeExponent, kMaxLobeExponent] (each kept room for the ones below and above it).
+  const std::size_t n = e.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double lo = brdf::kMinLobeExponent * std::pow(1.0001, static_cast<double>(i));
+    const double hi = brdf::kMaxLobeExponent / std::pow(1.0001, static_cast<double>(n - 1 - i));
+    e[i] = std::clamp(e[i], lo, hi);
+    if (i > 0) e[i] = std::max(e[i], e[i - 1] * 1.0001);
+  }
   return e;
 }
 
@@ -158,12 +164,15 @@ const std::vector<DirectionPair>& cosine_fit_geometries() {
       const brdf::Vec3 r(-wi.x(), 0, wi.z());
       v.push_back({wi, r});
       // The plane of incidence every 2.5 deg of viewing angle: where multi-angle instruments
-      // (and design targets) look.
+      // (and design targets) look (the mirror direction itself is the row above).
       for (double to = -70; to <= 70.1; to += 2.5)
-        v.push_back({wi, brdf::Vec3(std::sin(to * kDeg), 0, std::cos(to * kDeg))});
+        if (std::abs(to + ti) > 1e-9) v.push_back({wi, brdf::Vec3(std::sin(to * kDeg), 0, std::cos(to * kDeg))});
+      // Around r, half a turn from the side away from the normal (beta 90 deg: around()'s second
+      // axis points away from it) over the out-of-plane side (0) to the side towards the normal
+      // (-90): the paints are symmetric about the plane of incidence, the other half is a mirror.
       for (double a : alphas)
-        for (int k = 0; k < 5; ++k) {  // azimuths 0, 45, .., 180 deg about r (the paints are symmetric)
-          const brdf::Vec3 wo = around(r, a * kDeg, k * kPi / 4);
+        for (int k = 0; k < 5; ++k) {
+          const brdf::Vec3 wo = around(r, a * kDeg, kPi / 2 - k * kPi / 4);
           if (wo.z() >= min_z) v.push_back({wi, wo});
         }
     }
@@ -214,27 +223,40 @@ Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
     s->setZero(m);
     for (Eigen::Index a = 0; a < k; ++a) (*s)[idx[static_cast<std::size_t>(a)]] = sp[a];
   };
+  // A variable that could not enter (its solve came out <= 0 at once: nearly collinear with the
+  // passive set) is skipped until another one enters, so the loop cannot pick it forever.
+  std::vector<bool> skipped(static_cast<std::size_t>(m), false);
   for (int outer = 0; outer < 3 * m; ++outer) {
     const Eigen::VectorXd grad = Atb - G * x;
     Eigen::Index best = -1;
     for (Eigen::Index j = 0; j < m; ++j)
-      if (!passive[static_cast<std::size_t>(j)] && grad[j] > tol && (best < 0 || grad[j] > grad[best])) best = j;
+      if (!passive[static_cast<std::size_t>(j)] && !skipped[static_cast<std::size_t>(j)] && grad[j] > tol &&
+          (best < 0 || grad[j] > grad[best]))
+        best = j;
     if (best < 0) break;
     passive[static_cast<std::size_t>(best)] = true;
     Eigen::VectorXd s;
     for (int inner = 0; inner < 3 * m; ++inner) {
       solve_passive(&s);
       double alpha = 1.0;
-      bool feasible = true;
+      Eigen::Index blocking = -1;
       for (Eigen::Index j = 0; j < m; ++j)
         if (passive[static_cast<std::size_t>(j)] && s[j] <= 0) {
-          feasible = false;
-          alpha = std::min(alpha, x[j] / (x[j] - s[j]));
+          const double a = x[j] / (x[j] - s[j]);
+          if (blocking < 0 || a < alpha) alpha = a, blocking = j;
         }
-      if (feasible) break;
+      if (blocking < 0) break;
       x += alpha * (s - x);
+      // The blocking variable reaches 0 exactly (Lawson and Hanson); others at 0 leave as well.
+      x[blocking] = 0;
       for (Eigen::Index j = 0; j < m; ++j)
-        if (passive[static_cast<std::size_t>(j)] && x[j] <= 1e-15) passive[static_cast<std::size_t>(j)] = false, x[j] = 0;
+        if (passive[static_cast<std::size_t>(j)] && x[j] <= 0) passive[static_cast<std::size_t>(j)] = false, x[j] = 0;
+    }
+    if (!passive[static_cast<std::size_t>(best)]) {
+      skipped[static_cast<std::size_t>(best)] = true;
+      solve_passive(&s);
+    } else {
+      std::fill(skipped.begin(), skipped.end(), false);
     }
     x = s.cwiseMax(0.0);
   }
@@ -341,8 +363,9 @@ CosineBasis fit_cosine_basis(const std::vector<std::pair<std::string, std::share
     return out;
   };
   auto criterion = [](const std::vector<double>& e) {
-    return std::accumulate(e.begin(), e.end(), 0.0) / static_cast<double>(e.size()) +
-           *std::max_element(e.begin(), e.end());
+    const double c = std::accumulate(e.begin(), e.end(), 0.0) / static_cast<double>(e.size()) +
+                     *std::max_element(e.begin(), e.end());
+    return std::isfinite(c) ? c : std::numeric_limits<double>::infinity();  // a failed fit never wins
   };
 
   CosineBasis basis;
@@ -352,11 +375,36 @@ CosineBasis fit_cosine_basis(const std::vector<std::pair<std::string, std::share
     Eigen::VectorXd x0(n);
     for (int i = 0; i < n; ++i)
       x0[i] = n == 1 ? std::log(50.0) : std::log(2.0) + (std::log(5000.0) - std::log(2.0)) * i / (n - 1);
+    // And from the previous count's set with one exponent more in its widest gap (in log): the
+    // search runs from both and keeps the better (Nelder-Mead finds a local minimum; the nested
+    // start keeps a row from ending above the previous one, the even start finds sets it misses).
+    std::vector<Eigen::VectorXd> starts = {x0};
+    if (!basis.table.empty()) {
+      std::vector<double> prev;
+      for (double e : basis.table.back().exponents) prev.push_back(std::log(e));
+      prev.insert(prev.begin(), std::log(brdf::kMinLobeExponent));
+      prev.push_back(std::log(1e4));
+      std::size_t gap = 0;
+      for (std::size_t i = 1; i + 1 < prev.size(); ++i)
+        if (prev[i + 1] - prev[i] > prev[gap + 1] - prev[gap]) gap = i;
+      std::vector<double> inner(prev.begin() + 1, prev.end() - 1);
+      inner.insert(inner.begin() + static_cast<std::ptrdiff_t>(gap), 0.5 * (prev[gap] + prev[gap + 1]));
+      Eigen::VectorXd nested(n);
+      for (int i = 0; i < n; ++i) nested[i] = inner[static_cast<std::size_t>(i)];
+      starts.push_back(nested);
+    }
     int evals = 0;
-    double best = 0;
-    const Eigen::VectorXd x = nelder_mead(
-        [&](const Eigen::VectorXd& p) { return criterion(errors(sorted_exponents(p), LobeNorm::L2)); }, x0,
-        n == 1 ? 1.0 : 0.5 * (std::log(5000.0) - std::log(2.0)) / (n - 1), options.max_evaluations, &evals, &best);
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::VectorXd x;
+    for (const Eigen::VectorXd& start : starts) {
+      int e = 0;
+      double b = 0;
+      const Eigen::VectorXd found = nelder_mead(
+          [&](const Eigen::VectorXd& p) { return criterion(errors(sorted_exponents(p), LobeNorm::L2)); }, start,
+          n == 1 ? 1.0 : 0.5 * (std::log(5000.0) - std::log(2.0)) / (n - 1), options.max_evaluations, &e, &b);
+      evals += e;
+      if (b < best) best = b, x = found;
+    }
     CosineBasisRow row;
     row.lobes = n;
     row.exponents = sorted_exponents(x);
@@ -371,7 +419,7 @@ CosineBasis fit_cosine_basis(const std::vector<std::pair<std::string, std::share
   }
   const auto best = std::min_element(basis.table.begin(), basis.table.end(),
                                      [](const auto& a, const auto& b) { return a.criterion() < b.criterion(); });
-  const CosineBasisRow* kept = nullptr;
+  const CosineBasisRow* kept = &*best;
   for (const auto& row : basis.table) {
     if (options.lobes ? row.lobes == *options.lobes : row.criterion() <= (1.0 + options.keep_within) * best->criterion()) {
       kept = &row;
@@ -421,7 +469,7 @@ CosineBasis CosineBasis::from_json(const Json& j, const std::string& where) {
   probe.kg.assign(b.exponents.size(), brdf::Rgb::Zero());
   probe.kdd = probe.kg;
   if (const std::string problem = brdf::cosine_lobes_problem(probe); !problem.empty())
-    throw DataError(where + ": key '" + problem);
+    throw DataError(where + ": " + problem);
   if (j.contains("table")) {
     const Json& t = j.at("table");
     if (!t.is_array()) throw DataError(where + ": key 'table': expected an array");
@@ -477,6 +525,10 @@ DesignTargets load_design_targets(const fs::path& file) {
     const auto lab = x.triple("lab");
     if (!(lab[0] >= 0 && lab[0] <= 150))
       throw ConfigError(file.string(), x.line("lab"), x.path("lab"), fmt::format("L* {} outside [0, 150]", lab[0]));
+    for (int k : {1, 2})
+      if (!(std::abs(lab[static_cast<std::size_t>(k)]) <= 200))
+        throw ConfigError(file.string(), x.line("lab"), x.path("lab"),
+                          fmt::format("{} {} outside [-200, 200]", k == 1 ? "a*" : "b*", lab[static_cast<std::size_t>(k)]));
     target.lab = {lab[0], lab[1], lab[2]};
     for (const auto& y : d.targets)
       if (y.geometry.illumination_deg == target.geometry.illumination_deg &&
@@ -522,10 +574,14 @@ DesignResult design_paint(const std::vector<double>& exponents, const std::vecto
   std::array<Eigen::VectorXd, 3> fixed;
   for (auto& f : fixed) f = Eigen::VectorXd::Zero(1 + 2 * n);
   std::vector<std::string> notes;
+  Eigen::Index seen_lobes = 0;
   for (Eigen::Index i = 0; i < n; ++i) {
     double seen = 0;
     for (const auto& [wi, wo] : at) seen = std::max(seen, brdf::cosine_lobe(exponents[static_cast<std::size_t>(i)], wi, wo));
-    if (seen >= kUnseenLobe) continue;
+    if (seen >= kUnseenLobe) {
+      ++seen_lobes;
+      continue;
+    }
     for (int c = 0; c < 3; ++c) {
       if (like) {
         fixed[static_cast<std::size_t>(c)][1 + i] = like->kg[static_cast<std::size_t>(i)][c];
@@ -567,9 +623,12 @@ DesignResult design_paint(const std::vector<double>& exponents, const std::vecto
     a.de00 = colour::delta_e_2000(a.target.lab, a.achieved);
     a.reached = a.de00 <= kDesignToleranceDe00;
     if (!a.reached)
-      a.why = !gamut[k].empty() ? gamut[k]
-                                : "no non-negative combination of the basis's lobes comes closer while the other targets "
-                                  "are held (a lightness or hue flop across the angles the lobes cannot make)";
+      a.why = !gamut[k].empty()
+                  ? gamut[k]
+                  : fmt::format("no non-negative combination of the diffuse term and the {} lobe{} these targets see "
+                                "comes closer while the other targets are held (a flop across the angles the lobes "
+                                "cannot make; a basis of more lobes, basis fit --lobes N, may)",
+                                seen_lobes, seen_lobes == 1 ? "" : "s");
     r.angles.push_back(std::move(a));
   }
   return r;

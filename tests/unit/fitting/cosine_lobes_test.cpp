@@ -96,7 +96,7 @@ TEST(CosineLobes, FitRecoversACosineLobePaint) {
     }
   }
   EXPECT_THROW(fit_cosine_lobes(brdf::CosineLobes(p), {40, 3}), UsageError);
-  EXPECT_EQ(cosine_fit_geometries().size(), 729u);  // as docs/design.md states
+  EXPECT_EQ(cosine_fit_geometries().size(), 758u);  // as docs/design.md states
 }
 
 // The library of the tests: three measured-paint shapes of paints/ (Cook-Torrance, one of
@@ -140,21 +140,27 @@ TEST(CosineBasis, MoreLobesFitTheLibraryBetterAndTheTableRoundTrips) {
   EXPECT_THAT(cosine_basis_table(b), HasSubstr("<- kept"));
 
   // The basis reproduces the Cook-Torrance paints of the library within the error docs/design.md
-  // states: at the five in-plane angles of the instruments dE00 at most 5 (measured 0.1-4.3),
-  // 2 on average (measured 1.1-2.0); mean relative error 25 % (measured 19-21 %).
+  // states: at the five in-plane angles of the instruments dE00 at most 2.5 (measured worst
+  // 0.43-1.44), 1 on average (measured 0.21-0.58); mean relative error 22 % (measured 17.5-18.8 %).
   for (const auto& [name, brdf] : library()) {
     SCOPED_TRACE(name);
     const CosineLobeFit fit = fit_cosine_lobes(*brdf, b.table[4].exponents);
-    EXPECT_LT(fit.mean_error, 0.25);
+    EXPECT_LT(fit.mean_error, 0.22);
     const auto truth = colour_at(*brdf, geometry_set("five-angle"));
     const auto lobes = colour_at(brdf::CosineLobes(fit.params), geometry_set("five-angle"));
-    double sum = 0;
+    double sum = 0, worst = 0;
     for (std::size_t k = 0; k < truth.size(); ++k) {
       const double de = colour::delta_e_2000(truth[k].lab, lobes[k].lab);
-      EXPECT_LT(de, 5.0) << truth[k].geometry.name;
+      EXPECT_LT(de, 2.5) << truth[k].geometry.name;
       sum += de;
+      worst = std::max(worst, de);
     }
-    EXPECT_LT(sum / static_cast<double>(truth.size()), 2.0);
+    const Geometry behind = parse_geometry("45as-15");
+    const double de_behind = colour::delta_e_2000(colour_at(*brdf, {behind})[0].lab,
+                                                  colour_at(brdf::CosineLobes(fit.params), {behind})[0].lab);
+    std::printf("%s: mean relative error %.3f, five-angle dE00 mean %.2f, worst %.2f; 45as-15 %.2f\n", name.c_str(),
+                fit.mean_error, sum / static_cast<double>(truth.size()), worst, de_behind);
+    EXPECT_LT(sum / static_cast<double>(truth.size()), 1.0);
   }
 }
 

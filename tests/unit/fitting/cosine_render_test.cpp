@@ -38,7 +38,8 @@ brdf::CosineLobeParams glossy_red() {
 }
 
 TEST(PrefilteredEnvironment, UniformSkyGivesTheClosedForm) {
-  // Under L = 1 everywhere, P_E(d) = integral of max(0, d.w)^E dw = 2 pi / (E + 1).
+  // Under L = 1 everywhere, P_E(d) = integral of max(0, d.w)^E dw = 2 pi / (E + 1) (what the
+  // kernel's normalisation makes exact; OneBrightTexelGivesItsLobe checks the kernel itself).
   const EnvironmentMap env(ImageF(128, 64, 3, 1.0f), 1.0);
   const std::vector<double> e = {2, 30, 800};
   const PrefilteredEnvironment p = PrefilteredEnvironment::build(env, e);
@@ -59,6 +60,35 @@ TEST(PrefilteredEnvironment, UniformSkyGivesTheClosedForm) {
       if (pv.mask[static_cast<std::size_t>(y) * 32 + x]) {
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(pv.linear.at(x, y, c), white.kd[c], 0.01 * white.kd[c]);
       }
+}
+
+TEST(PrefilteredEnvironment, OneBrightTexelGivesItsLobe) {
+  // L = L0 in one texel of solid angle W, 0 elsewhere: P_E(d) = L0 W (d.t)^E, t the texel's
+  // direction; checked at every texel centre of each map within the lobe (the normalisation to
+  // 2 pi / (E + 1) is the only approximation: the kernel summed over the texels, 1-2 %). A 64 x 32
+  // map, so no map is built from a box-filtered one.
+  ImageF sky(64, 32, 3, 0.0f);
+  const int tx = 21, ty = 9;
+  for (int c = 0; c < 3; ++c) sky.at(tx, ty, c) = 1000.0f;
+  const EnvironmentMap env(sky, 1.0);
+  const Vec3 t = env.direction((tx + 0.5) / 64, (ty + 0.5) / 32);
+  const double W = (2 * kPi / 64) * (std::cos(kPi * ty / 32) - std::cos(kPi * (ty + 1) / 32));
+  const std::vector<double> e = {2, 12};
+  const PrefilteredEnvironment p = PrefilteredEnvironment::build(env, e);
+  int checked = 0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double E = k == 0 ? 1.0 : e[k - 1];
+    const ImageF& m = p.map(k);
+    for (int y = 0; y < m.height(); ++y)
+      for (int x = 0; x < m.width(); ++x) {
+        const Vec3 d = env.direction((x + 0.5) / m.width(), (y + 0.5) / m.height());
+        if (d.dot(t) < (E > 2 ? 0.8 : 0.5)) continue;
+        const double want = 1000.0 * W * std::pow(d.dot(t), E);
+        EXPECT_NEAR(m.at(x, y, 1), want, 0.03 * want) << "E " << E << " texel " << x << ", " << y;
+        ++checked;
+      }
+  }
+  EXPECT_GT(checked, 50);
 }
 
 TEST(PrefilteredEnvironment, BasisRenderMatchesMonteCarloOfTheSameModel) {

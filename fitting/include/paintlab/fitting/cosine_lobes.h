@@ -38,10 +38,12 @@ struct DirectionPair {
   brdf::Vec3 wi, wo;  // towards the light, towards the viewer (local frame, n = +z)
 };
 
-// Where a paint and its cosine-lobe form are compared: illumination at 5..75 deg in 10 deg
-// steps, each with viewing directions around the mirror direction at 16 distances from 0.5 to
-// 80 deg (dense near the gloss, where a clear coat's lobe is a few degrees wide) and 5 azimuths
-// about it (the paints are isotropic); directions less than 5 deg above the surface are left out.
+// Where a paint and its cosine-lobe form are compared: illumination at 15..65 deg in 10 deg
+// steps, each with the mirror direction, the plane of incidence every 2.5 deg of viewing angle
+// and views around the mirror direction at 16 distances from 0.5 to 80 deg (dense near the
+// gloss, where a clear coat's lobe is a few degrees wide) at 5 azimuths over half a turn (the
+// paints are symmetric about the plane of incidence); views more than 70 deg from the normal
+// are left out.
 const std::vector<DirectionPair>& cosine_fit_geometries();
 
 // The model's columns at `at`: one row per direction pair, columns [kd, kg_1..kg_n,
