@@ -238,18 +238,6 @@ AxfCarPaintParams parse_axf(const Table& t) {
   return p;
 }
 
-const char* toml_type_name(const toml::node& n) {
-  switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a number";
-    case toml::node_type::boolean: return "a boolean";
-    default: return "a date or time";
-  }
-}
-
 // The TOML twin of JsonTable::triples: ConfigTable reads flat arrays only, so the nested
 // array is read from the parsed table itself (the key is marked as read, errors name its line).
 std::vector<std::array<double, 3>> triples(const ConfigTable& t, std::string_view key) {

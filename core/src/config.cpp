@@ -22,20 +22,6 @@ struct ConfigTable::State {
 namespace {
 std::string fmt_num(double v) { return fmt::format("{:g}", v); }
 
-const char* type_name(const toml::node& n) {
-  switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a number";
-    case toml::node_type::boolean: return "a boolean";
-    case toml::node_type::date: return "a date";
-    case toml::node_type::time: return "a time";
-    case toml::node_type::date_time: return "a date-time";
-    default: return "nothing";
-  }
-}
 }  // namespace
 
 bool Bounds::contains(double v) const {
@@ -134,7 +120,7 @@ double ConfigTable::checked_number(std::string_view key, const toml::node& node,
   } else if (auto f = node.as_floating_point()) {
     v = f->get();
   } else {
-    fail(key, std::string("expected a number, got ") + type_name(node));
+    fail(key, std::string("expected a number, got ") + toml_type_name(node));
   }
   if (!b.contains(v)) fail(key, b.describe() + " (got " + fmt_num(v) + ")");
   return v;
@@ -156,7 +142,7 @@ std::optional<double> ConfigTable::maybe_number(std::string_view key, Bounds b) 
 std::int64_t ConfigTable::integer(std::string_view key, Bounds b) const {
   const toml::node& n = require(key);
   auto i = n.as_integer();
-  if (!i) fail(key, std::string("expected an integer, got ") + type_name(n));
+  if (!i) fail(key, std::string("expected an integer, got ") + toml_type_name(n));
   if (!b.contains(static_cast<double>(i->get()))) fail(key, b.describe() + " (got " + std::to_string(i->get()) + ")");
   return i->get();
 }
@@ -169,7 +155,7 @@ std::int64_t ConfigTable::integer(std::string_view key, std::int64_t fallback, B
 bool ConfigTable::boolean(std::string_view key) const {
   const toml::node& n = require(key);
   auto v = n.as_boolean();
-  if (!v) fail(key, std::string("expected true or false, got ") + type_name(n));
+  if (!v) fail(key, std::string("expected true or false, got ") + toml_type_name(n));
   return v->get();
 }
 
@@ -181,7 +167,7 @@ bool ConfigTable::boolean(std::string_view key, bool fallback) const {
 std::string ConfigTable::string(std::string_view key) const {
   const toml::node& n = require(key);
   auto v = n.as_string();
-  if (!v) fail(key, std::string("expected a string, got ") + type_name(n));
+  if (!v) fail(key, std::string("expected a string, got ") + toml_type_name(n));
   return v->get();
 }
 
@@ -219,7 +205,7 @@ std::vector<double> ConfigTable::numbers(std::string_view key, std::size_t min_c
                                          Bounds b) const {
   const toml::node& n = require(key);
   auto arr = n.as_array();
-  if (!arr) fail(key, std::string("expected an array of numbers, got ") + type_name(n));
+  if (!arr) fail(key, std::string("expected an array of numbers, got ") + toml_type_name(n));
   if (arr->size() < min_count || arr->size() > max_count) {
     std::string want = min_count == max_count ? std::to_string(min_count)
                                               : std::to_string(min_count) + ".." + std::to_string(max_count);
@@ -231,7 +217,7 @@ std::vector<double> ConfigTable::numbers(std::string_view key, std::size_t min_c
     double v;
     if (auto iv = e.as_integer()) v = static_cast<double>(iv->get());
     else if (auto fv = e.as_floating_point()) v = fv->get();
-    else fail(key, "element " + std::to_string(i) + ": expected a number, got " + type_name(e));
+    else fail(key, "element " + std::to_string(i) + ": expected a number, got " + toml_type_name(e));
     if (!b.contains(v)) fail(key, "element " + std::to_string(i) + " " + b.describe() + " (got " + fmt_num(v) + ")");
     out.push_back(v);
   }
@@ -246,7 +232,7 @@ std::array<double, 3> ConfigTable::triple(std::string_view key, Bounds b) const 
 ConfigTable ConfigTable::table(std::string_view key) const {
   const toml::node& n = require(key);
   auto t = n.as_table();
-  if (!t) fail(key, std::string("expected a table, got ") + type_name(n));
+  if (!t) fail(key, std::string("expected a table, got ") + toml_type_name(n));
   return ConfigTable(state_, t, path(key));
 }
 
@@ -271,7 +257,7 @@ std::vector<ConfigTable> ConfigTable::tables(std::string_view key, std::size_t m
   }
   auto arr = n->as_array();
   if (!arr || !arr->is_array_of_tables())
-    fail(key, std::string("expected an array of tables ([[") + std::string(key) + "]]), got " + type_name(*n));
+    fail(key, std::string("expected an array of tables ([[") + std::string(key) + "]]), got " + toml_type_name(*n));
   if (arr->size() < min_count || arr->size() > max_count)
     fail(key, "expected " + std::to_string(min_count) + ".." + std::to_string(max_count) + " entries, got " +
                   std::to_string(arr->size()));
@@ -287,6 +273,21 @@ void ConfigTable::finish() const {
       std::string where = prefix_.empty() ? "at the top level" : "in [" + prefix_ + "]";
       throw ConfigError(state_->file, static_cast<int>(v.source().begin.line), full, "unknown key " + where);
     }
+  }
+}
+
+const char* toml_type_name(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::table: return "a table";
+    case toml::node_type::array: return "an array";
+    case toml::node_type::string: return "a string";
+    case toml::node_type::integer: return "an integer";
+    case toml::node_type::floating_point: return "a number";
+    case toml::node_type::boolean: return "a boolean";
+    case toml::node_type::date: return "a date";
+    case toml::node_type::time: return "a time";
+    case toml::node_type::date_time: return "a date-time";
+    default: return "nothing";
   }
 }
 

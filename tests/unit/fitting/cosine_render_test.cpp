@@ -28,6 +28,21 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
+// sun_and_sky_map(32) as an EXR file (channels R, G, B), what --env reads.
+void write_sky(const fs::path& file) {
+  ExrImage img;
+  img.width = 64;
+  img.height = 32;
+  const ImageF sky = sun_and_sky_map(32);
+  for (int c = 0; c < 3; ++c) {
+    ImageF plane(64, 32, 1);
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 64; ++x) plane.at(x, y) = sky.at(x, y, c);
+    img.add(std::string(1, "RGB"[c]), std::move(plane));
+  }
+  write_exr(file, img);
+}
+
 brdf::CosineLobeParams glossy_red() {
   brdf::CosineLobeParams p;
   p.exponents = {3, 40, 900};
@@ -124,17 +139,7 @@ TEST(PrefilteredEnvironment, BasisRenderMatchesMonteCarloOfTheSameModel) {
 
 TEST(PrefilteredEnvironment, MapsAreCachedOnDiskOnce) {
   test::TempDir tmp;
-  ExrImage img;
-  img.width = 64;
-  img.height = 32;
-  const ImageF sky = sun_and_sky_map(32);
-  for (int c = 0; c < 3; ++c) {
-    ImageF plane(64, 32, 1);
-    for (int y = 0; y < 32; ++y)
-      for (int x = 0; x < 64; ++x) plane.at(x, y) = sky.at(x, y, c);
-    img.add(std::string(1, "RGB"[c]), std::move(plane));
-  }
-  write_exr(tmp / "sky.exr", img);
+  write_sky(tmp / "sky.exr");
   bool cached = true;
   const auto a = PrefilteredEnvironment::cached(tmp / "sky.exr", 1.5, {4, 100}, tmp / "cache", &cached);
   EXPECT_FALSE(cached);
@@ -226,17 +231,7 @@ TEST(CosineCli, BasisFitDesignExportAndRender) {
   EXPECT_THAT(r.err, HasSubstr("--cosine-lobes needs --basis"));
 
   // render --basis cosine under a sky, against the full model in the same run.
-  ExrImage img;
-  img.width = 64;
-  img.height = 32;
-  const ImageF sky = sun_and_sky_map(32);
-  for (int c = 0; c < 3; ++c) {
-    ImageF plane(64, 32, 1);
-    for (int y = 0; y < 32; ++y)
-      for (int x = 0; x < 64; ++x) plane.at(x, y) = sky.at(x, y, c);
-    img.add(std::string(1, "RGB"[c]), std::move(plane));
-  }
-  write_exr(tmp / "sky.exr", img);
+  write_sky(tmp / "sky.exr");
   const std::string common = " --env " + (tmp / "sky.exr").string() + " --no-point-light --size 48 --samples 8" +
                              " --basis cosine --env-cache " + (tmp / "cache").string();
   r = test::run_paintlab("render " + (tmp / "red.axf.h5").string() + " --out " + (tmp / "c.png").string() + common +

@@ -21,6 +21,10 @@ class node;
 
 namespace paintlab {
 
+// What a TOML value is, for messages: "a table", "an array", "a string", "an integer", "a number",
+// "a boolean", "a date", "a time" or "a date-time".
+const char* toml_type_name(const toml::node& n);
+
 // Allowed range of a number. Messages print the rule ("must be > 0").
 struct Bounds {
   double lo = -std::numeric_limits<double>::infinity();
