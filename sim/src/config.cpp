@@ -80,7 +80,7 @@ void check_geometry(const SimConfig& c, const std::function<void(const char* sec
 }
 
 const std::set<std::string>& top_level_keys() {
-  static const std::set<std::string> keys{"seed", "clock_speed", "camera", "sensor", "led", "sphere", "scene", "render", "filters"};
+  static const std::set<std::string> keys{"seed", "flake_seed", "clock_speed", "camera", "sensor", "led", "sphere", "scene", "render", "filters"};
   return keys;
 }
 
@@ -122,6 +122,8 @@ SimConfig SimConfig::parse(const ConfigTable& sim, const RigGeometry& nominal) {
   for (const auto& k : sim.keys())
     if (!top_level_keys().count(k)) sim.fail(k, "unknown key in [" + sim.path("") + "]");
   c.seed = static_cast<std::uint64_t>(sim.integer("seed", 1, Bounds::closed(0, 9.0e15)));
+  if (sim.has("flake_seed"))
+    c.flake_seed = static_cast<std::uint64_t>(sim.integer("flake_seed", 1, Bounds::closed(0, 9.0e15)));
   c.clock_speed = sim.number("clock_speed", 0.0, Bounds::closed(0.0, 1e9));
 
   if (auto t = sim.maybe_table("camera")) {
@@ -278,7 +280,7 @@ Json SimConfig::to_json() const {
   auto v3 = [](const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); };
   const auto& cam = camera;
   const auto& s = sensor;
-  return Json{
+  Json j{
       {"seed", seed},
       {"clock_speed", clock_speed},
       {"camera",
@@ -336,6 +338,8 @@ Json SimConfig::to_json() const {
         {"interior_tolerance", render.interior_tolerance},
         {"sparkle_floor", render.sparkle_floor}}},
       {"filters", {{"red", filters.red}, {"green", filters.green}, {"blue", filters.blue}}}};
+  if (flake_seed) j["flake_seed"] = *flake_seed;
+  return j;
 }
 
 }  // namespace paintlab::sim

@@ -417,7 +417,7 @@ std::shared_ptr<const SimWorld::PaintState> SimWorld::make_paint_state(SimPaint 
       throw DataError(fmt::format("simulator: a flake density of {:.3g} per pixel footprint means about {:.3g} "
                                   "visible flakes, more than the renderer keeps (1.5e8)",
                                   sp.density, expected_total));
-    FlakeField field(s.r, st->flakes_per_m2, sp.roughness, config_.seed);
+    FlakeField field(s.r, st->flakes_per_m2, sp.roughness, config_.flake_field_seed());
     st->coloured = sp.colour.any();
     st->shift_rad_per_rad = sp.colour.interference_shift_deg;  // deg per deg = rad per rad
     std::vector<std::pair<std::uint32_t, PaintState::FlakeRec>> assigned;

@@ -8,8 +8,10 @@
 // lifetime within 1 deg. Issue 16 asks for 2 dE: two panels of the paint (flake fields of
 // their own) differ by 2.9-5.1 dE per slice on this 320 x 240 rig (a slice holds a few hundred
 // flakes), the model by 1.7-3.4 dE; at 640 x 480 (PAINTLAB_SPARKLE_SCALE=2) the model meets
-// 2 dE in four of the five slices of more than 10 000 glints (2.02 in the fifth). The
-// figures are printed; docs/sparkle.md quotes them.
+// 2 dE in four of the five slices of more than 10 000 glints (2.02 in the fifth); at the full
+// demo rig's resolution (PAINTLAB_SPARKLE_SCALE=4, 1280 x 960) in 9 of the 10 slices of 2000
+// glints or more and in every slice of 8000 or more, which that scale asserts. The figures
+// are printed; docs/sparkle.md quotes them.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -27,12 +29,17 @@
 namespace paintlab::fit {
 namespace {
 
+// PAINTLAB_SPARKLE_SCALE=k: a rig of 320k x 240k pixels (k^2 times the flakes per slice).
+// 2: 640 x 480, about 2 min instead of 25 s; 4: 1280 x 960, the full demo rig's resolution,
+// about 8 min, where the issue's 2 dE is asserted per slice (docs/sparkle.md).
+double rig_scale() {
+  const char* scale = std::getenv("PAINTLAB_SPARKLE_SCALE");
+  return scale ? std::clamp(std::atof(scale), 0.5, 4.0) : 1.0;
+}
+
 test_support::SimSessionOptions sweep(double start_deg) {
   test_support::SimSessionOptions o;
-  // PAINTLAB_SPARKLE_SCALE=2: a 640 x 480 rig (four times the flakes per slice), as docs/sparkle.md
-  // was measured; about 2 min instead of 25 s.
-  const char* scale = std::getenv("PAINTLAB_SPARKLE_SCALE");
-  const double k = scale ? std::clamp(std::atof(scale), 0.5, 4.0) : 1.0;
+  const double k = rig_scale();
   o.width_px = static_cast<int>(320 * k);
   o.height_px = static_cast<int>(240 * k);
   o.focal_length_mm = 25.0 * k;
@@ -99,6 +106,11 @@ TEST(SparkleAcceptance, ExportedFlakesRenderTheMeasuredSparkleAtUnmeasuredAngles
     // for the panel's own scatter), or within the issue's 2 dE.
     if (std::isfinite(floor)) {
       EXPECT_LE(emd, std::max(2.0, 1.5 * floor)) << s.theta_f << ", " << s.theta_i;
+    }
+    // On a rig of the full demo's resolution a slice of 8000 glints or more holds enough
+    // flakes for the issue's 2 dE (at 1280 x 960: 0.57-1.48 dE in the eight such slices).
+    if (rig_scale() >= 4.0 && s.glints >= 8000) {
+      EXPECT_LE(emd, 2.0) << s.theta_f << ", " << s.theta_i;
     }
     ++compared;
   }

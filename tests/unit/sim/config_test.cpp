@@ -73,6 +73,7 @@ TEST(SimConfig, ParsesEverySection) {
   sim::SimConfig c = parse(R"(
 [sim]
 seed = 7
+flake_seed = 11
 clock_speed = 50
 [sim.camera]
 fx_px = 7800
@@ -99,6 +100,8 @@ interior_tolerance = 0.01
 sparkle_floor = 0.5
 )");
   EXPECT_EQ(c.seed, 7u);
+  EXPECT_EQ(c.flake_field_seed(), 11u);
+  EXPECT_EQ(parse("[sim]\nseed = 7\n").flake_field_seed(), 7u);  // unset: the rig's seed
   EXPECT_DOUBLE_EQ(c.clock_speed, 50.0);
   EXPECT_DOUBLE_EQ(c.camera.fx_px, 7800.0);
   EXPECT_DOUBLE_EQ(c.camera.dist[4], 0.01);
@@ -121,6 +124,7 @@ sparkle_floor = 0.5
   EXPECT_EQ(j["sensor"]["adc_bits"], 16);
   EXPECT_EQ(j["camera"]["rgb_gain"][2], 0.7);
   EXPECT_EQ(j["render"]["interior_samples"], 4);
+  EXPECT_EQ(j["flake_seed"], 11);
 }
 
 TEST(SimConfig, ErrorsNameFileLineAndKey) {

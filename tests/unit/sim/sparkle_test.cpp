@@ -125,6 +125,29 @@ TEST(Sparkle, PatternIsStableAndGlintsMoveWithTheLight) {
   EXPECT_GT(both, 10);  // flakes with a lifetime of 6.5 deg: many still glint
 }
 
+// `flake_seed`: another panel of the paint on the same rig. The flakes move, the smooth
+// render (and the sensor's fixed pattern the calibration measured) stays.
+TEST(Sparkle, FlakeSeedDrawsAnotherPanelOnTheSameRig) {
+  sim::SimConfig cfg = sim::test::small_config(50.0);
+  auto lobe = std::make_shared<sim::test::TestLobeBrdf>(0.0, 0.5, 0.2);
+  sim::Sparkle sp;
+  sp.density = 2.0;
+  sp.flake_part = lobe;
+  sim::SimWorld a(cfg);
+  cfg.flake_seed = cfg.seed + 1;
+  sim::SimWorld b(cfg);
+  a.set_paint({lobe, sp});
+  b.set_paint({lobe, sp});
+  sim::RenderOptions smooth;
+  smooth.sparkle = false;
+  EXPECT_EQ(a.render_at(30.0, true, smooth).values(), b.render_at(30.0, true, smooth).values());
+  const ImageF ga = a.render_at(30.0, true), gb = b.render_at(30.0, true);
+  ASSERT_EQ(ga.size(), gb.size());
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < ga.size(); ++i) differ += ga.data()[i] != gb.data()[i];
+  EXPECT_GT(differ, ga.size() / 100);
+}
+
 TEST(SparkleColour, TintsAverageToGreyAndFollowTheirDistribution) {
   sim::FlakeColour colour;
   colour.tint_sd = 0.25;

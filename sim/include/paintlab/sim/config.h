@@ -133,6 +133,10 @@ struct SimConfig {
   RenderParams render;
   FilterTruth filters;
   std::uint64_t seed = 1;
+  // The sphere's flake field (another panel of the same paint on the same rig: the sensor's
+  // fixed pattern, which the calibration measured, stays). Unset: `seed`.
+  std::optional<std::uint64_t> flake_seed;
+  std::uint64_t flake_field_seed() const { return flake_seed.value_or(seed); }
   // Virtual clock: virtual seconds per real second (0 = never sleep for real).
   double clock_speed = 0.0;
 
