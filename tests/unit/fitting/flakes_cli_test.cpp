@@ -81,6 +81,8 @@ TEST(FlakesCli, WritesFlakesJsonAndRefusesBadInput) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("instrument-style sparkle"));
   EXPECT_THAT(r.out, HasSubstr("wrote " + out3.string()));
+  // The fit says what its +- do not count under sparkle.
+  EXPECT_THAT(r.out, HasSubstr("the session sparkles: the +- count the samples as independent"));
   const fs::path out4 = sim->dir / "flakes-against-fit.json";
   r = test::run_paintlab("flakes " + session.string() + calib + " --fit " + fit_json.string() + " --out " + out4.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
