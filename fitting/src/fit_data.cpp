@@ -220,34 +220,61 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
   }
 
   const double floor2 = options.relative_floor * options.relative_floor;
-  // Per bin: usable?, and its pooled relative per-sample variance.
-  auto pooled_rho = [&](std::size_t b, Region region) {
-    std::array<double, 3> pooled{0, 0, 0};
-    if (!data.has_statistics) return pooled;
+  // Calls f(q) for every bin q of the 3x3x3 neighbourhood of bin b (phi_d wraps around).
+  auto for_each_neighbour = [](std::size_t b, const auto& f) {
     const brdf::MerlBin mb = brdf::merl_bin_of_flat(b);
-    std::array<double, 3> num{0, 0, 0}, den{0, 0, 0};
     for (int di = -1; di <= 1; ++di) {
       const int i = mb.theta_h + di;
       if (i < 0 || i >= kMerlThetaH) continue;
       for (int dj = -1; dj <= 1; ++dj) {
         const int j = mb.theta_d + dj;
         if (j < 0 || j >= kMerlThetaD) continue;
-        for (int dk = -1; dk <= 1; ++dk) {
-          const int k = (mb.phi_d + dk + kMerlPhiD) % kMerlPhiD;
-          const std::size_t q = brdf::merl_flat_index({i, j, k});
-          // Degrees of freedom of the bin's variance estimate.
-          const double dof = static_cast<double>(table.count(q)) - (use_noise ? 0.0 : 1.0);
-          if (dof <= 0.0) continue;
-          for (int c = 0; c < 3; ++c)
-            if (rho[3 * q + c] >= 0.0f) {
-              num[c] += dof * rho[3 * q + c];
-              den[c] += dof;
-            }
-        }
+        for (int dk = -1; dk <= 1; ++dk) f(brdf::merl_flat_index({i, j, (mb.phi_d + dk + kMerlPhiD) % kMerlPhiD}));
       }
     }
+  };
+  // Per bin: usable?, and its pooled relative per-sample variance.
+  auto pooled_rho = [&](std::size_t b, Region region) {
+    std::array<double, 3> pooled{0, 0, 0};
+    if (!data.has_statistics) return pooled;
+    std::array<double, 3> num{0, 0, 0}, den{0, 0, 0};
+    for_each_neighbour(b, [&](std::size_t q) {
+      // Degrees of freedom of the bin's variance estimate.
+      const double dof = static_cast<double>(table.count(q)) - (use_noise ? 0.0 : 1.0);
+      if (dof <= 0.0) return;
+      for (int c = 0; c < 3; ++c)
+        if (rho[3 * q + c] >= 0.0f) {
+          num[c] += dof * rho[3 * q + c];
+          den[c] += dof;
+        }
+    });
     for (int c = 0; c < 3; ++c) pooled[c] = den[c] > 0.0 ? num[c] / den[c] : region_median[static_cast<int>(region)][c];
     return pooled;
+  };
+  // The relative per-sample variance the log of a point's mean is biased by (the delta
+  // correction; fit_data.h): the samples' own spread, which holds the flakes' sparkle that
+  // the pixel-noise variance (the weights') does not know about, and at least that noise.
+  // A ratio of sums pooled over the bin's 3x3x3 neighbourhood, sum (n - 1) var / sum (n - 1)
+  // mean^2: rare bright glints leave a bin's own var / mean^2 near 0 in most bins (no glint)
+  // and bounded in the others, so an average of the bins' ratios would understate the
+  // scatter several times over. Not in the peak: there the spread inside a bin is the clear
+  // coat's change across the bin, not noise.
+  auto pooled_spread = [&](std::size_t b, Region region, const std::array<double, 3>& noise) {
+    if (!data.has_statistics || region == Region::Peak) return noise;
+    std::array<double, 3> num{0, 0, 0}, den{0, 0, 0};
+    for_each_neighbour(b, [&](std::size_t q) {
+      if (table.state(q) != brdf::BinState::Measured || table.count(q) < 2) return;
+      const double dof = static_cast<double>(table.count(q)) - 1.0;
+      const brdf::Rgb v = table.value(q), var = table.variance(q);
+      for (int c = 0; c < 3; ++c) {
+        num[c] += dof * var[c];
+        den[c] += dof * v[c] * v[c];
+      }
+    });
+    std::array<double, 3> s = noise;
+    for (int c = 0; c < 3; ++c)
+      if (den[c] > 0.0) s[c] = std::max(noise[c], num[c] / den[c]);
+    return s;
   };
   auto usable = [&](std::size_t b) {
     if (table.state(b) != brdf::BinState::Measured) return false;
@@ -265,7 +292,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
     std::vector<std::pair<std::size_t, double>> members;  // (bin, count)
     double count = 0;
     Eigen::Vector3d coords = Eigen::Vector3d::Zero();  // sums weighted by count
-    std::array<double, 3> value{0, 0, 0}, rho{0, 0, 0};
+    std::array<double, 3> value{0, 0, 0}, rho{0, 0, 0}, spread{0, 0, 0};
   };
   std::vector<std::uint32_t> member_bin;  // the table bin of every data.members entry
   auto emit = [&](const Group& g) {
@@ -292,7 +319,8 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
       if (!(fb.value[c] > 0.0)) continue;
       const double s2 = data.has_statistics ? (g.rho[c] / w) / w : 0.0;
       fb.noise_sigma[c] = std::sqrt(s2);
-      fb.target[c] = std::log(fb.value[c]) + (options.delta_correction ? 0.5 * s2 : 0.0);
+      const double s2_bias = data.has_statistics ? (g.spread[c] / w) / w : 0.0;
+      fb.target[c] = std::log(fb.value[c]) + (options.delta_correction ? 0.5 * s2_bias : 0.0);
       fb.inv_sigma[c] = 1.0 / std::sqrt(s2 + floor2);
       ++data.residuals;
       any = true;
@@ -314,6 +342,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
         if (!usable(b)) continue;
         const double n = data.has_statistics ? static_cast<double>(table.count(b)) : 1.0;
         const std::array<double, 3> rb = pooled_rho(b, region_of_bin(b));
+        const std::array<double, 3> rs = pooled_spread(b, region_of_bin(b), rb);
         if (g.bins == 0) g.first = b;
         ++g.bins;
         g.members.emplace_back(b, n);
@@ -323,6 +352,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
         for (int c = 0; c < 3; ++c) {
           g.value[c] += n * v[c];
           g.rho[c] += n * rb[c];
+          g.spread[c] += n * rs[c];
         }
         if (g.count >= target) {
           if (have_previous) emit(previous);

@@ -203,6 +203,52 @@ TEST(FitData, LinearWeightsDoNotDependOnTheBinsOwnValue) {
   EXPECT_THROW(o.check(), OptionError);
 }
 
+// The delta correction of the log residuals (fit_data.h): outside the peak it takes the
+// samples' own spread, pooled as a ratio of sums over the 3x3x3 neighbourhood, when that is
+// larger than the pixel noise (a glint the noise does not know about); in the peak, where the
+// spread inside a bin is the clear coat's change across it, the noise.
+TEST(FitData, DeltaCorrectionTakesTheSamplesSpreadOutsideThePeak) {
+  brdf::MerlTable table;
+  const double noise = 4e-4;  // per-sample variance of the pixel noise
+  std::vector<float> noise_variance(3 * brdf::kMerlBins, static_cast<float>(noise));
+  const int glossy = 30, peak = 3, j = 20;  // theta_h about 10 deg and 0.1 deg
+  for (int i : {glossy, peak})
+    for (int k = 0; k < brdf::kMerlPhiD; ++k) {
+      const std::size_t b = brdf::merl_flat_index({i, j, k});
+      // 4 samples a bin, all alike but one bin that caught a glint: mean 3, variance 12.
+      const bool glint = k == 91;
+      const double v = glint ? 3.0 : 1.0, var = glint ? 12.0 : 0.0;
+      table.set_value(b, brdf::Rgb(v, v, v), brdf::BinState::Measured);
+      table.set_statistics(b, 4, brdf::Rgb(var, var, var), brdf::merl_bin_centre(b));
+    }
+  FitDataOptions o;
+  o.min_samples = 1;
+  const FitData data = prepare_fit_data(table, o, &noise_variance);
+  auto point = [&](int i, int k) -> const FitBin& {
+    const std::size_t bin = brdf::merl_flat_index({i, j, k});
+    for (const FitBin& b : data.bins)
+      if (b.bin == bin) return b;
+    ADD_FAILURE() << "no fit point for bin " << i << ", " << k;
+    return data.bins.front();
+  };
+  // Next to the glint: sum var / sum mean^2 over bins 89, 90, 91 = 12 / 11 (the bins' own
+  // ratios would average 0.44), over 4 samples, halved.
+  EXPECT_NEAR(point(glossy, 90).target[1], 0.5 * (12.0 / 11.0) / 4.0, 1e-6);
+  // Far from it only the noise: rho = 4e-4.
+  EXPECT_NEAR(point(glossy, 120).target[1], 0.5 * noise / 4.0, 1e-9);
+  // The weights keep the noise everywhere, pooled as before (the glint bin's relative noise
+  // is 4e-4 / 9).
+  const double pooled_noise = (2.0 * noise + noise / 9.0) / 3.0;
+  EXPECT_NEAR(point(glossy, 90).noise_sigma[1], std::sqrt(pooled_noise / 4.0), 1e-7);
+  // In the peak the noise even next to the glint.
+  EXPECT_NEAR(point(peak, 90).target[1], 0.5 * pooled_noise / 4.0, 1e-9);
+  EXPECT_NEAR(point(peak, 120).target[1], 0.5 * noise / 4.0, 1e-9);
+  // Off: the plain log.
+  o.delta_correction = false;
+  const FitData plain = prepare_fit_data(table, o, &noise_variance);
+  for (const FitBin& b : plain.bins) EXPECT_DOUBLE_EQ(b.target[1], std::log(b.value[1]));
+}
+
 // Auto pooling (FitDataOptions::min_samples 0): a table whose glossy samples spread like their
 // noise is fitted a point per bin; one whose spread is many times the noise (flake sparkle)
 // pools to kSparklePooling samples a point, and the residual report says which.

@@ -3,8 +3,14 @@
 // reports (docs/fitting.md "Fits").
 //
 // A fit compares log values. Per measured bin b and channel c:
-//   y_bc     = log(v_bc) + s2_bc / 2      (delta-method correction: E[log mean] is
+//   y_bc     = log(v_bc) + t2_bc / 2      (delta-method correction: E[log mean] is
 //                                          log(truth) - var/(2 v^2) to second order)
+//   t2_bc    = max(rho_bc, spread_bc) / n_b outside the peak region, s2_bc in it:
+//              spread_bc = sum (n - 1) var / sum (n - 1) mean^2 over the bin's 3x3x3
+//              neighbourhood, the samples' own relative scatter, which holds the flakes'
+//              sparkle that the pixel-noise variance does not (a ratio of sums: glints are
+//              rare, so most bins' own var / mean^2 is near 0); in the peak the spread
+//              inside a bin is the clear coat's change across it, not noise
 //   s2_bc    = rho_bc / n_b               variance of log(v_bc) from the samples
 //   rho_bc   = relative per-sample variance var/v^2 POOLED over the bin's 3x3x3
 //              neighbourhood (degrees-of-freedom weighted), so a bin is not weighted by its
