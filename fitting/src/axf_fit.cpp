@@ -282,7 +282,10 @@ AxfFit fit_axf_carpaint(const FitData& data, const AxfFitOptions& o) {
     const double s2 = (b.noise_sigma[0] * b.noise_sigma[0] + b.noise_sigma[1] * b.noise_sigma[1] +
                        b.noise_sigma[2] * b.noise_sigma[2]) / 3.0;
     a.noise = std::sqrt(s2);
-    a.target = std::log(a.value) + (data.options.delta_correction ? 0.5 * s2 : 0.0);
+    // The delta correction as the Cook-Torrance fit's (fit_data.h t2: the samples' spread
+    // outside the peak, the flakes' glints included).
+    const double t2 = (b.bias_variance[0] + b.bias_variance[1] + b.bias_variance[2]) / 3.0;
+    a.target = std::log(a.value) + (data.options.delta_correction ? 0.5 * t2 : 0.0);
     a.inv_sigma = 1.0 / std::sqrt(s2 + floor2);
     achro.push_back(a);
   }

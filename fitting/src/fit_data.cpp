@@ -319,8 +319,8 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
       if (!(fb.value[c] > 0.0)) continue;
       const double s2 = data.has_statistics ? (g.rho[c] / w) / w : 0.0;
       fb.noise_sigma[c] = std::sqrt(s2);
-      const double s2_bias = data.has_statistics ? (g.spread[c] / w) / w : 0.0;
-      fb.target[c] = std::log(fb.value[c]) + (options.delta_correction ? 0.5 * s2_bias : 0.0);
+      fb.bias_variance[c] = data.has_statistics ? (g.spread[c] / w) / w : 0.0;
+      fb.target[c] = std::log(fb.value[c]) + (options.delta_correction ? 0.5 * fb.bias_variance[c] : 0.0);
       fb.inv_sigma[c] = 1.0 / std::sqrt(s2 + floor2);
       ++data.residuals;
       any = true;

@@ -87,6 +87,23 @@ TEST(AxfFit, RecoversTheAchromaticLobesAndTheColourTableOfATabulatedPaint) {
   EXPECT_EQ(spec.axf_carpaint()->chi.rgb.size(), 32u * 32u);
 }
 
+// The achromatic stage takes the Cook-Torrance fit's delta correction (fit_data.h): exact
+// values whose samples spread by 0.4 over 4 samples a bin give a level e^0.05 above them.
+TEST(AxfFit, TheDeltaCorrectionTakesTheSamplesSpread) {
+  const brdf::AxfCarPaintParams truth = truth_paint();
+  brdf::MerlTable table = test_support::tabulate_sparse(brdf::AxfCarPaint(truth), 8);
+  const std::vector<float> noise = test_support::with_sample_spread(table, 4, 0.4, 1e-6);
+  FitDataOptions o;
+  o.min_samples = 1;
+  AxfFitOptions opt = quick_options();
+  opt.covariance = false;
+  const AxfFit fit = fit_axf_carpaint(prepare_fit_data(table, o, &noise), opt);
+  EXPECT_THAT(fit.params.diffuse, NearRel(truth.diffuse * std::exp(0.05), 0.01));
+  o.delta_correction = false;
+  const AxfFit plain = fit_axf_carpaint(prepare_fit_data(table, o, &noise), opt);
+  EXPECT_THAT(plain.params.diffuse, NearRel(truth.diffuse, 0.01));
+}
+
 TEST(AxfFit, FitsNoisyBinnedSamplesWithinTheNoise) {
   const brdf::AxfCarPaintParams truth = truth_paint();
   const BinnedTable binned = test_support::binned_sweep(brdf::AxfCarPaint(truth), 100, 0.02, test::seed(), 2.0);

@@ -249,6 +249,22 @@ TEST(FitData, DeltaCorrectionTakesTheSamplesSpreadOutsideThePeak) {
   for (const FitBin& b : plain.bins) EXPECT_DOUBLE_EQ(b.target[1], std::log(b.value[1]));
 }
 
+// The correction reaches the fit: exact values whose samples spread by 0.4 (relative
+// variance) over 4 samples a bin are read as logs biased by -0.05, so the fitted level comes
+// out e^0.05 above the values (and at them with the correction off).
+TEST(CookTorranceFit, TheDeltaCorrectionRaisesTheLevelByHalfTheSpread) {
+  const brdf::CookTorranceParams truth = blue_params();
+  brdf::MerlTable table = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 8);
+  const std::vector<float> noise = test_support::with_sample_spread(table, 4, 0.4, 1e-6);
+  FitDataOptions o;
+  o.min_samples = 1;
+  const CookTorranceFit fit = fit_cook_torrance(prepare_fit_data(table, o, &noise), quick_options(2));
+  for (int c = 0; c < 3; ++c) EXPECT_THAT(fit.params.kd[c], NearRel(truth.kd[c] * std::exp(0.05), 0.01)) << c;
+  o.delta_correction = false;
+  const CookTorranceFit plain = fit_cook_torrance(prepare_fit_data(table, o, &noise), quick_options(2));
+  for (int c = 0; c < 3; ++c) EXPECT_THAT(plain.params.kd[c], NearRel(truth.kd[c], 0.01)) << c;
+}
+
 // Auto pooling (FitDataOptions::min_samples 0): a table whose glossy samples spread like their
 // noise is fitted a point per bin; one whose spread is many times the noise (flake sparkle)
 // pools to kSparklePooling samples a point, and the residual report says which.

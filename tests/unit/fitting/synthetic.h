@@ -64,6 +64,21 @@ inline brdf::MerlTable tabulate_sparse(const brdf::Brdf& paint, std::size_t stri
   return table;
 }
 
+// Gives every measured bin of `table` the statistics of `count` samples whose relative spread
+// var / v^2 is `spread` (a scatter, like the flakes' glints, that the pixel noise does not hold)
+// and returns the per-sample pixel-noise variances, `noise` v^2 (fit_data.h: the delta
+// correction then takes spread / count outside the peak).
+inline std::vector<float> with_sample_spread(brdf::MerlTable& table, std::uint32_t count, double spread, double noise) {
+  std::vector<float> noise_variance(3 * brdf::kMerlBins, 0.0f);
+  for (std::size_t b = 0; b < brdf::kMerlBins; ++b) {
+    if (table.state(b) != brdf::BinState::Measured) continue;
+    const brdf::Rgb v = table.value(b);
+    table.set_statistics(b, count, spread * v * v, brdf::merl_bin_centre(b));
+    for (int c = 0; c < 3; ++c) noise_variance[3 * b + c] = static_cast<float>(noise * v[c] * v[c]);
+  }
+  return noise_variance;
+}
+
 // A white pearlescent paint: a layered paint that is no sum of Cook-Torrance lobes, so one
 // iteration of a Cook-Torrance fit cannot converge on it (and a full fit needs many).
 // Small multi-start fits for unit tests: two grid starts, one random, a 6000-bin subsample.

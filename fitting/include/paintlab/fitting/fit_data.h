@@ -142,6 +142,7 @@ struct FitBin {
   std::array<double, 3> target{};                     // y_bc
   std::array<double, 3> inv_sigma{};                  // 1 / sigma_bc; 0 = channel not used (v <= 0)
   std::array<double, 3> noise_sigma{};                // sqrt(s2_bc): the log noise of the value alone
+  std::array<double, 3> bias_variance{};              // t2_bc: what the delta correction of y_bc halves
   std::array<double, 3> linear_weight{};              // Linear: 1 / (sigma'_bc ref_bc); 0 = not used
   std::array<double, 3> linear_sigma{};               // Linear: sigma'_bc (relative)
 };
