@@ -254,7 +254,7 @@ TEST(FitData, DeltaCorrectionTakesTheSamplesSpreadOutsideThePeak) {
 // out e^0.05 above the values (and at them with the correction off).
 TEST(CookTorranceFit, TheDeltaCorrectionRaisesTheLevelByHalfTheSpread) {
   const brdf::CookTorranceParams truth = blue_params();
-  brdf::MerlTable table = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 8);
+  brdf::MerlTable table = test_support::tabulate_sparse(brdf::CookTorrance(truth.kd, truth.lobes), 32);
   const std::vector<float> noise = test_support::with_sample_spread(table, 4, 0.4, 1e-6);
   FitDataOptions o;
   o.min_samples = 1;
