@@ -50,7 +50,10 @@ struct ExportArgs {
 
 int run_export(const ExportArgs& a) {
   fit::OutputGuard guard;
-  for (const auto& in : a.inputs) guard.input("INPUT", in).input("what " + in + " was fitted to", fit::fitted_input_of(in));
+  for (const auto& in : a.inputs) {
+    guard.input("INPUT", in);
+    for (const auto& f : fit::fitted_inputs_of(in)) guard.input("what " + in + " was fitted to", f);
+  }
   guard.input("--calib", a.extract.calib).input("--basis", a.basis);
   if (a.cosine_lobes && a.basis.empty())
     throw UsageError("--cosine-lobes needs --basis BASIS.json (made by paintlab basis fit --dir LIBRARY)");

@@ -1,13 +1,14 @@
-// paintlab fit INPUT --model cook-torrance|axf-carpaint [--lobes N] --out fit.json
+// paintlab fit INPUT... --model cook-torrance|axf-carpaint [--lobes N] --out fit.json
 //   INPUT: a session folder (its HDR images are extracted and binned with the rig's
 //   calibration first) or a MERL .binary table (public measured tables, or one `paintlab
-//   bin` wrote).
-// paintlab bin SESSION --out table.merl [--coverage coverage.exr] [--fill]
+//   bin` wrote); or several sessions of one paint, binned into one table.
+// paintlab bin SESSION... --out table.merl [--coverage coverage.exr] [--fill]
 //   extracts and bins a session alone: the measured table (holes written as -1, as MERL
 //   readers expect) and the coverage map.
 #include <algorithm>
 #include <filesystem>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <optional>
 
 #include "cli.h"
@@ -38,8 +39,8 @@ namespace {
 
 // The commands' descriptions (their --help).
 constexpr const char* kFitHelp =
-    "Fit a paint model to a session (its HDR images are extracted and binned with the rig's calibration) or to a "
-    "MERL .binary table, and write fit.json (parameters, standard deviations, residuals per region, solver "
+    "Fit a paint model to a session (its HDR images are extracted and binned with the rig's calibration), to "
+    "several sessions of one paint binned together, or to a MERL .binary table, and write fit.json (parameters, standard deviations, residuals per region, solver "
     "summary). Exit 1 when the fit does not converge (fit.json is still written, with \"converged\": false and "
     "the solver's termination), 2 on bad input (nothing is written then).";
 constexpr const char* kBinHelp =
@@ -50,7 +51,7 @@ constexpr const char* kBinHelp =
 namespace fs = std::filesystem;
 
 struct FitArgs {
-  std::string input;
+  std::vector<std::string> inputs;
   std::string model = "cook-torrance";
   int lobes = 3;
   std::string out;
@@ -85,13 +86,22 @@ int run_fit(const FitArgs& a) {
   fit::FitRequest req = fit::FitRequest::with(fit::fit_model_from_string(a.model, "--model"), "fitted", shared);
   req.cook_torrance.data.residuals = fit::fit_residuals_from_string(a.residuals, "--residuals");
   req.check();
-  const fs::path input(a.input);
-  if (!fs::exists(input)) throw IoError(a.input, "no such file or folder");
+  std::vector<fs::path> inputs;
+  for (const std::string& i : a.inputs) {
+    if (!fs::exists(i)) throw IoError(i, "no such file or folder");
+    inputs.emplace_back(i);
+  }
+  const fs::path& input = inputs.front();
   fit::OutputGuard guard;
-  guard.input("INPUT", input).input("--calib", a.extract.calib).output({"--out", a.out});
+  for (const fs::path& i : inputs) guard.input("INPUT", i);
+  guard.input("--calib", a.extract.calib).output({"--out", a.out});
   if (!a.flakes.empty()) {
     if (!fs::is_directory(input))
-      throw DataError(fmt::format("--flakes: {} is a table; flakes are measured from a session's images", a.input));
+      throw DataError(fmt::format("--flakes: {} is a table; flakes are measured from a session's images", a.inputs[0]));
+    if (inputs.size() > 1)
+      throw UsageError(fmt::format("--flakes measures one session's flakes; with {} sessions fitted together, run "
+                                   "`paintlab flakes SESSION --fit {}` for each",
+                                   inputs.size(), a.out));
     guard.output({"--flakes", a.flakes});
   }
   guard.check();
@@ -99,13 +109,13 @@ int run_fit(const FitArgs& a) {
   if (bin.sites == fit::SiteFit::On && !fs::is_directory(input))
     throw DataError(fmt::format("--cfa-sites on: {} is a table; only a session's images show which pixel measured "
                                 "which colour",
-                                a.input));
+                                a.inputs[0]));
   if (req.model != fit::FitModel::CookTorrance) {
     if (bin.sites == fit::SiteFit::On)
       throw DataError(fmt::format("--cfa-sites on fits the cook-torrance model, not --model {}", a.model));
     bin.sites = fit::SiteFit::Off;
   }
-  const fit::FitInput in = fit::load_fit_input(input, bin);
+  const fit::FitInput in = fit::load_fit_input(inputs, bin);
   if (in.stats) say(in.stats->describe(in.measured_bins()));
   for (const std::string& w : in.warnings) spdlog::warn("{}", w);
   req.name = fit::paint_name_from(a.name.empty() ? in.sample : a.name);
@@ -139,7 +149,7 @@ int run_fit(const FitArgs& a) {
 }
 
 struct BinArgs {
-  std::string session;
+  std::vector<std::string> sessions;
   std::string out;
   std::string coverage;  // default: beside --out
   bool fill = false;
@@ -148,8 +158,9 @@ struct BinArgs {
 };
 
 int run_bin(const BinArgs& a) {
-  const acq::SessionDir session = acq::SessionDir::open(a.session);  // DataError: not a session folder
-  const fs::path dir(a.session), out(a.out);
+  std::vector<acq::SessionDir> sessions;
+  for (const std::string& s : a.sessions) sessions.push_back(acq::SessionDir::open(s));  // DataError: not a session
+  const fs::path out(a.out);
   fs::path cov(a.coverage);
   OutputSpec cov_spec("--coverage", cov);
   if (cov.empty()) {
@@ -157,20 +168,20 @@ int run_bin(const BinArgs& a) {
     cov_spec = OutputSpec("--out", cov);
     cov_spec.beside = out;
   }
-  fit::OutputGuard()
-      .input("SESSION", dir)
-      .input("--calib", a.extract.calib)
+  fit::OutputGuard guard;
+  for (const std::string& s : a.sessions) guard.input("SESSION", s);
+  guard.input("--calib", a.extract.calib)
       .input("--against", a.against)
       .output({"--out", out})
       .output(cov_spec)
       .check();
   std::unique_ptr<brdf::Brdf> against;
   if (!a.against.empty()) against = brdf::make_brdf(fit::load_any_paint(a.against).paint_spec());
-  fit::BinnedSession s = fit::bin_session(session, bin_options(a.extract));
+  fit::BinnedSession s = fit::bin_sessions(sessions, bin_options(a.extract));
   say(s.stats.describe(s.binned.table.count_in_state(brdf::BinState::Measured)));
   if (s.binned.table.count_in_state(brdf::BinState::Measured) == 0)
     throw DataError(fmt::format("{}: no sample landed in the table (every pixel invalid or grazing); nothing written",
-                                a.session));
+                                fmt::join(a.sessions, ", ")));
   brdf::MerlTable& table = s.binned.table;
   say(fit::coverage(table).describe());
   if (against) say(fit::grazing_band_table(fit::compare_by_grazing_band(table, *against)));
@@ -189,7 +200,11 @@ int run_bin(const BinArgs& a) {
 
 void register_fit_commands(CLI::App& app) {
   auto [fit, args] = add_command<FitArgs>(&app, "fit", kFitHelp, run_fit);
-  fit->add_option("INPUT", args->input, "Session folder or MERL .binary table")->required();
+  fit->add_option("INPUT", args->inputs,
+                  "Session folder or MERL .binary table; or several sessions of one paint (other spheres, or the "
+                  "sphere turned on its stand), binned into one table and fitted together: more independent flakes "
+                  "for a sparkling paint (docs/fitting.md \"Sparkle\")")
+      ->required();
   fit->add_option("--model", args->model, "Model to fit: cook-torrance or axf-carpaint")->capture_default_str();
   sets_fields(fit->add_option("--lobes", args->lobes, "Lobes (Cook-Torrance, or the car paint's achromatic lobes), 1..3"),
               {"CtFitOptions::lobes", "AxfFitOptions::lobes"})
@@ -220,7 +235,8 @@ void register_fit_commands(CLI::App& app) {
   add_cfa_sites_option(fit, args->extract);
 
   auto [bin, bargs] = add_command<BinArgs>(&app, "bin", kBinHelp, run_bin);
-  bin->add_option("SESSION", bargs->session, "Session folder")->required();
+  bin->add_option("SESSION", bargs->sessions, "Session folder, or several sessions of one paint binned into one table")
+      ->required();
   bin->add_option("--out", bargs->out, "MERL .binary table to write")->required();
   bin->add_option("--coverage", bargs->coverage, "Coverage map to write (default: OUT's name with .coverage.exr)");
   bin->add_flag("--fill", bargs->fill,

@@ -1,6 +1,7 @@
 #include "paintlab/fitting/export.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -203,13 +204,19 @@ void export_paint_files(const ExportRequest& r, ExportResult& result) {
     }
     paint = paint ? merge_axf(std::move(*paint), p) : std::move(p);
   }
-  // A fit of a session: the provenance is the session's (when it is still there).
-  if (fit_input && fit_input->value("kind", "") == "session") {
-    const fs::path sp = fit_input->value("path", "");
+  // A fit of a session: the provenance is the session's (when it is still there); of several,
+  // the first one's, the source naming them all.
+  const std::vector<fs::path> fitted = fit_input ? fitted_sessions(*fit_input) : std::vector<fs::path>{};
+  if (!fitted.empty()) {
+    const fs::path& sp = fitted.front();
     if (acq::is_session_dir(sp)) {
       const std::string source = paint->provenance.source;
       paint->provenance = session_provenance(acq::SessionDir::open(sp));
-      paint->provenance.source = source + " (a fit of session " + sp.string() + ")";
+      std::vector<std::string> names;
+      for (const fs::path& p : fitted) names.push_back(p.string());
+      paint->provenance.source = fitted.size() == 1 ? source + " (a fit of session " + sp.string() + ")"
+                                                    : fmt::format("{} (a fit of sessions {} together)", source,
+                                                                  fmt::join(names, ", "));
     } else {
       spdlog::warn("the fitted session {} is not there: provenance without the measurement", sp.string());
     }
@@ -221,11 +228,13 @@ void export_paint_files(const ExportRequest& r, ExportResult& result) {
     auto t0 = std::chrono::steady_clock::now();
     if (kind == "merl" && fs::exists(path)) {
       merl_table = brdf::read_merl(path);
-    } else if (kind == "session" && acq::is_session_dir(path)) {
+    } else if (!fitted.empty() && std::all_of(fitted.begin(), fitted.end(), acq::is_session_dir)) {
       // Binned as the fit's table was: the margin, variance and estimator its input records.
       SessionBinOptions o = bin_options_of_input(*fit_input, with_threads(r.bin, r.threads), "fit.json");
       o.sites = SiteFit::Off;  // a MERL table is the demosaiced image's, whatever the fit was made at
-      merl_table = bin_session(acq::SessionDir::open(path), o).binned.table;
+      std::vector<acq::SessionDir> sessions;
+      for (const fs::path& p : fitted) sessions.push_back(acq::SessionDir::open(p));
+      merl_table = bin_sessions(sessions, o).binned.table;
       result.bin_s = seconds_since(t0);
     } else {
       throw UsageError(
@@ -442,12 +451,15 @@ std::string write_filled_merl(brdf::MerlTable table, const fs::path& out) {
       out.string(), r.measured_bins, r.filled_mirror, r.filled_pyramid, r.invalid_empty);
 }
 
-std::filesystem::path fitted_input_of(const std::filesystem::path& file) {
+std::vector<std::filesystem::path> fitted_inputs_of(const std::filesystem::path& file) {
   if (file.extension() != ".json" || !std::filesystem::is_regular_file(file)) return {};
   try {
     const Json j = read_json_file(file);
-    if (j.is_object() && j.contains("input") && j["input"].is_object())
-      return std::filesystem::path(j["input"].value("path", std::string()));
+    if (!j.is_object() || !j.contains("input") || !j["input"].is_object()) return {};
+    std::vector<std::filesystem::path> out = fitted_sessions(j["input"]);
+    if (out.empty() && j["input"].contains("path") && j["input"]["path"].is_string())
+      out.emplace_back(j["input"]["path"].get<std::string>());
+    return out;
   } catch (const Error&) {
     // export itself names what is wrong with the file
   }

@@ -561,9 +561,13 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
 
 namespace {
 
-// Reads, extracts and bins `frames` in a bounded pipeline (extraction.h) into one accumulator,
-// or into three by filter-array site (extraction.cfa_sites).
-std::vector<BinnedTable> extract_and_bin(const std::vector<HdrFrame>& frames, const SphereSampler& sampler,
+void log_extraction(const SphereSampler& sampler, const ExtractionOptions& extraction);
+
+// Reads, extracts and bins the groups' frames in a bounded pipeline (extraction.h), group
+// after group, each with its own sampler, into one accumulator, or into three by
+// filter-array site (extraction.cfa_sites).
+std::vector<BinnedTable> extract_and_bin(const std::vector<CalibratedFrames>& groups,
+                                         const std::vector<SphereSampler>& samplers,
                                          const ExtractionOptions& extraction, const BinningOptions& binning,
                                          ExtractionStats* stats) {
   const bool by_site = extraction.cfa_sites;
@@ -572,8 +576,14 @@ std::vector<BinnedTable> extract_and_bin(const std::vector<HdrFrame>& frames, co
   const int threads = extraction.threads > 0 ? extraction.threads : tbb::this_task_arena::max_concurrency();
   const std::size_t in_flight =
       static_cast<std::size_t>(extraction.images_in_flight > 0 ? extraction.images_in_flight : 2 * threads);
+  // Every frame as (group, frame), in order.
+  std::vector<std::pair<std::size_t, std::size_t>> order;
+  for (std::size_t g = 0; g < groups.size(); ++g)
+    for (std::size_t k = 0; k < groups[g].frames.size(); ++k) order.emplace_back(g, k);
+  for (const CalibratedFrames& g : groups)
+    if (g.stats) *g.stats = {};
   ExtractionStats total;
-  Progress progress("extract + bin", static_cast<long>(frames.size()), "img");
+  Progress progress("extract + bin", static_cast<long>(order.size()), "img");
   std::size_t next = 0;
   struct Item {
     std::size_t index = 0;
@@ -586,7 +596,7 @@ std::vector<BinnedTable> extract_and_bin(const std::vector<HdrFrame>& frames, co
         in_flight,
         tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
                                             [&](tbb::flow_control& fc) -> std::size_t {
-                                              if (next >= frames.size()) {
+                                              if (next >= order.size()) {
                                                 fc.stop();
                                                 return 0;
                                               }
@@ -597,26 +607,44 @@ std::vector<BinnedTable> extract_and_bin(const std::vector<HdrFrame>& frames, co
                 [&](std::size_t k) {
                   auto item = std::make_shared<Item>();
                   item->index = k;
-                  const HdrFrame& f = frames[k];
+                  const auto [g, i] = order[k];
+                  const SphereSampler& sampler = samplers[g];
+                  const HdrFrame& f = groups[g].frames[i];
                   const ExrImage img = read_exr(f.path);
                   item->stats = by_site ? sampler.extract_sites(img, f.angle_deg, item->batches, f.path.string())
                                         : sampler.extract(img, f.angle_deg, item->batches[0], f.path.string());
                   return item;
                 }) &
-            tbb::make_filter<std::shared_ptr<Item>, void>(tbb::filter_mode::serial_in_order,
-                                                          [&](std::shared_ptr<Item> item) {
-                                                            for (std::size_t a = 0; a < acc.size(); ++a)
-                                                              acc[a].add(item->batches[a]);
-                                                            total.add(item->stats);
-                                                            progress.step(fmt::format(
-                                                                "{:.1f} deg", frames[item->index].angle_deg));
-                                                          }));
+            tbb::make_filter<std::shared_ptr<Item>, void>(
+                tbb::filter_mode::serial_in_order, [&](std::shared_ptr<Item> item) {
+                  for (std::size_t a = 0; a < acc.size(); ++a) acc[a].add(item->batches[a]);
+                  total.add(item->stats);
+                  const auto [g, i] = order[item->index];
+                  if (groups[g].stats) groups[g].stats->add(item->stats);
+                  progress.step(groups.size() > 1
+                                    ? fmt::format("session {} of {}, {:.1f} deg", g + 1, groups.size(),
+                                                  groups[g].frames[i].angle_deg)
+                                    : fmt::format("{:.1f} deg", groups[g].frames[i].angle_deg));
+                }));
   });
   progress.finish(fmt::format("{} samples", total.samples));
   if (stats) *stats = total;
   std::vector<BinnedTable> out;
   for (const BinAccumulator& a : acc) out.push_back(a.finish());
   return out;
+}
+
+// One sampler per group (DataError for a group without frames or calibration), logged.
+std::vector<SphereSampler> group_samplers(const std::vector<CalibratedFrames>& groups,
+                                          const ExtractionOptions& extraction) {
+  if (groups.empty()) throw DataError("no HDR images to extract samples from");
+  std::vector<SphereSampler> samplers;
+  for (const CalibratedFrames& g : groups) {
+    if (g.frames.empty() || !g.calibration) throw DataError("no HDR images to extract samples from");
+    samplers.emplace_back(*g.calibration, extraction);
+    log_extraction(samplers.back(), extraction);
+  }
+  return samplers;
 }
 
 void log_extraction(const SphereSampler& sampler, const ExtractionOptions& extraction) {
@@ -631,30 +659,48 @@ void log_extraction(const SphereSampler& sampler, const ExtractionOptions& extra
 
 BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
                        const ExtractionOptions& extraction, const BinningOptions& binning, ExtractionStats* stats) {
+  return bin_frames({CalibratedFrames{frames, &calibration, nullptr}}, extraction, binning, stats);
+}
+
+BinnedTable bin_frames(const std::vector<CalibratedFrames>& groups, const ExtractionOptions& extraction,
+                       const BinningOptions& binning, ExtractionStats* stats) {
   extraction.check();
-  if (frames.empty()) throw DataError("no HDR images to extract samples from");
   if (extraction.cfa_sites)
     throw DataError("binning at the filter-array sites gives one table per colour (bin_frames_by_site)");
-  const SphereSampler sampler(calibration, extraction);
-  log_extraction(sampler, extraction);
-  return std::move(extract_and_bin(frames, sampler, extraction, binning, stats).front());
+  const std::vector<SphereSampler> samplers = group_samplers(groups, extraction);
+  return std::move(extract_and_bin(groups, samplers, extraction, binning, stats).front());
 }
 
 SiteTables bin_frames_by_site(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
                               ExtractionOptions extraction, const BinningOptions& binning, ExtractionStats* stats) {
+  return bin_frames_by_site({CalibratedFrames{frames, &calibration, nullptr}}, std::move(extraction), binning, stats);
+}
+
+SiteTables bin_frames_by_site(const std::vector<CalibratedFrames>& groups, ExtractionOptions extraction,
+                              const BinningOptions& binning, ExtractionStats* stats) {
   extraction.cfa_sites = true;
   extraction.check();
-  if (frames.empty()) throw DataError("no HDR images to extract samples from");
-  const SphereSampler sampler(calibration, extraction);
-  log_extraction(sampler, extraction);
-  // The colour space of the frames decides the map back (extract_sites checks each image).
-  const ExrImage first = read_exr(frames.front().path);
-  const auto space = first.attributes.find("paintlab.colour_space");
-  const bool camera_rgb = space != first.attributes.end() && space->second == colour::kCameraRgb;
+  const std::vector<SphereSampler> samplers = group_samplers(groups, extraction);
+  // The colour space of the frames decides the map back (extract_sites checks each image);
+  // every group's sites must map to it alike.
+  std::optional<Eigen::Matrix3d> to_colour_space;
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    const ExrImage first = read_exr(groups[g].frames.front().path);
+    const auto space = first.attributes.find("paintlab.colour_space");
+    const bool camera_rgb = space != first.attributes.end() && space->second == colour::kCameraRgb;
+    const Eigen::Matrix3d m = camera_rgb || !samplers[g].site_to_srgb() ? Eigen::Matrix3d::Identity()
+                                                                        : *samplers[g].site_to_srgb();
+    if (to_colour_space && !to_colour_space->isApprox(m, 1e-9))
+      throw DataError(fmt::format(
+          "{}: its filter-array sites map to the colour space otherwise than {}'s (another colour calibration or "
+          "colour space); sessions fitted together at their sites need the same colour calibration",
+          groups[g].frames.front().path.parent_path().string(), groups[0].frames.front().path.parent_path().string()));
+    to_colour_space = m;
+  }
   SiteTables out;
-  std::vector<BinnedTable> tables = extract_and_bin(frames, sampler, extraction, binning, stats);
+  std::vector<BinnedTable> tables = extract_and_bin(groups, samplers, extraction, binning, stats);
   for (std::size_t c = 0; c < 3; ++c) out.tables[c] = std::move(tables[c]);
-  if (!camera_rgb) out.to_colour_space = *sampler.site_to_srgb();  // extract_sites refused it otherwise
+  out.to_colour_space = *to_colour_space;
   return out;
 }
 

@@ -95,7 +95,9 @@ std::string ct_report(const CookTorranceFit& f) {
   if (std::isfinite(f.residual.sparkle_excess) && f.residual.sparkle_excess > kSparkleExcess)
     s += "  note              the session sparkles: the +- count the samples as independent, but a flake lobe's\n"
          "                    split into ks and r rests on the few flakes lit near grazing (theta_d > 65 deg) and\n"
-         "                    differs more between panels of a paint (docs/fitting.md \"Sparkle\")\n";
+         "                    differs more between panels of a paint; sessions of other spheres or orientations\n"
+         "                    fitted together (`paintlab fit S1 S2 ...`) average more flakes (docs/fitting.md\n"
+         "                    \"Sparkle\")\n";
   s += fmt::format("  solver            {} iterations, {} residual blocks, cost {:.6g} -> {:.6g}, {:.2f} s, {} starts\n",
                    f.summary.iterations, f.summary.residual_blocks, f.summary.initial_cost, f.summary.final_cost,
                    f.summary.time_s, f.summary.starts.size());

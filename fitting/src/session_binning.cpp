@@ -2,6 +2,7 @@
 
 #include "paintlab/fitting/pipeline.h"
 
+#include <algorithm>
 #include <fmt/format.h>
 
 #include <optional>
@@ -67,56 +68,146 @@ std::vector<HdrFrame> session_frames(const acq::SessionDir& session) {
   return frames;
 }
 
+namespace {
+
+// Whether `session` is binned at its filter-array sites with `options` (SiteFit), or the
+// refusal that makes it demosaiced: DataError naming the session for SiteFit::On.
+std::optional<std::string> sites_refused(const acq::SessionDir& session, const calib::RigCalibration& cal,
+                                         const SessionBinOptions& options) {
+  if (options.extraction.cfa_sites) return std::nullopt;
+  if (options.sites == SiteFit::Off) return std::string("--cfa-sites off");
+  std::optional<std::string> refusal = site_fit_refusal(session, cal, options.extraction);
+  if (refusal && options.sites == SiteFit::On)
+    throw DataError(fmt::format("{}: cannot be fitted at its filter-array sites (--cfa-sites on): {}",
+                                session.dir().string(), *refusal));
+  return refusal;
+}
+
+std::string colour_space_of(const acq::SessionDir& session) {
+  const std::string& cs = session.manifest().options.colour_space;
+  return cs.empty() ? colour::kCameraRgb : cs;
+}
+
+// The rules for sessions binned together: DataError naming the session that breaks one.
+void check_fitted_together(const std::vector<acq::SessionDir>& sessions) {
+  for (std::size_t i = 1; i < sessions.size(); ++i) {
+    const acq::SessionDir& s = sessions[i];
+    const acq::SessionDir& first = sessions[0];
+    for (std::size_t j = 0; j < i; ++j)
+      if (fs::equivalent(s.dir(), sessions[j].dir()) || acq::session_sha256(s.dir()) == acq::session_sha256(sessions[j].dir()))
+        throw DataError(fmt::format("{}: given twice (as {}): a measurement binned twice would count its samples "
+                                    "twice; give each session once",
+                                    s.dir().string(), sessions[j].dir().string()));
+    if (colour_space_of(s) != colour_space_of(first))
+      throw DataError(fmt::format("{}: measured in {}, {} in {}: sessions fitted together need one colour space",
+                                  s.dir().string(), colour_space_of(s), first.dir().string(), colour_space_of(first)));
+    if (s.manifest().sample != first.manifest().sample)
+      spdlog::warn("{} measured sample '{}', {} '{}': fitted together as one paint", s.dir().string(),
+                   s.manifest().sample, first.dir().string(), first.manifest().sample);
+  }
+}
+
+}  // namespace
+
 BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOptions& options) {
+  return bin_sessions({session}, options);
+}
+
+BinnedSession bin_sessions(const std::vector<acq::SessionDir>& sessions, const SessionBinOptions& options) {
   options.check();
-  acq::require_complete_session(session);
-  const std::vector<HdrFrame> frames = session_frames(session);
-  const calib::RigCalibration cal = acq::session_calibration(session, options.calib_dir);
-  spdlog::info("extracting and binning {} HDR images of {}", frames.size(), session.dir().string());
+  if (sessions.empty()) throw DataError("no session to bin");
+  check_fitted_together(sessions);
+  std::vector<calib::RigCalibration> cals;
+  std::vector<std::vector<HdrFrame>> frames;
+  for (const acq::SessionDir& s : sessions) {
+    acq::require_complete_session(s);
+    frames.push_back(session_frames(s));
+    cals.push_back(acq::session_calibration(s, options.calib_dir));
+  }
+  // At the sites only when every session can be (one table of each colour for all).
   ExtractionOptions extraction = options.extraction;
-  if (options.sites != SiteFit::Off && !extraction.cfa_sites) {
-    const std::optional<std::string> refusal = site_fit_refusal(session, cal, extraction);
-    if (refusal && options.sites == SiteFit::On)
-      throw DataError(fmt::format("{}: cannot be fitted at its filter-array sites (--cfa-sites on): {}",
-                                  session.dir().string(), *refusal));
-    if (refusal && session.manifest().options.pixel_format.rfind("Bayer", 0) == 0)
-      spdlog::warn("{}: fitted on the demosaiced image, not at its filter-array sites: {}", session.dir().string(),
-                   *refusal);
-    extraction.cfa_sites = !refusal;
+  if (!extraction.cfa_sites && options.sites != SiteFit::Off) {
+    extraction.cfa_sites = true;
+    for (std::size_t i = 0; i < sessions.size(); ++i)
+      if (const auto refusal = sites_refused(sessions[i], cals[i], options)) {
+        extraction.cfa_sites = false;
+        if (sessions[i].manifest().options.pixel_format.rfind("Bayer", 0) == 0)
+          spdlog::warn("{}: fitted on the demosaiced image, not at its filter-array sites: {}{}",
+                       sessions[i].dir().string(), *refusal, sessions.size() > 1 ? " (so are the other sessions)" : "");
+      }
+  }
+  std::vector<ExtractionStats> each(sessions.size());
+  std::vector<CalibratedFrames> groups;
+  for (std::size_t i = 0; i < sessions.size(); ++i) {
+    spdlog::info("extracting and binning {} HDR images of {}", frames[i].size(), sessions[i].dir().string());
+    groups.push_back({frames[i], &cals[i], &each[i]});
   }
   BinnedSession out;
   std::size_t measured = 0;
   if (extraction.cfa_sites) {
-    out.sites = bin_frames_by_site(frames, cal, extraction, options.binning, &out.stats);
+    out.sites = bin_frames_by_site(groups, extraction, options.binning, &out.stats);
     for (const BinnedTable& t : out.sites->tables) measured += t.table.count_in_state(brdf::BinState::Measured);
   } else {
-    out.binned = bin_frames(frames, cal, extraction, options.binning, &out.stats);
+    out.binned = bin_frames(groups, extraction, options.binning, &out.stats);
     measured = out.binned.table.count_in_state(brdf::BinState::Measured);
   }
-  spdlog::info("{} samples in {} bins{}", out.stats.samples, measured,
-               out.sites ? " (the three colours' tables together)" : "");
-  out.input = {{"kind", "session"},
-               {"path", fs::absolute(session.dir()).lexically_normal().string()},
-               {"sample", session.manifest().sample},
-               {"colour_space", session.manifest().options.colour_space.empty()
-                                    ? colour::kCameraRgb
-                                    : session.manifest().options.colour_space},
-               {"positions", frames.size()},
-               {"session_sha256", acq::session_sha256(session.dir())},
+  spdlog::info("{} samples in {} bins{}{}", out.stats.samples, measured,
+               out.sites ? " (the three colours' tables together)" : "",
+               sessions.size() > 1 ? fmt::format(" from {} sessions", sessions.size()) : "");
+  // One session as fits have always recorded it; several as "sessions", each with its own
+  // path, checksum, counts and blur, the first one's also at the top (readers of one session).
+  auto path_of = [](const acq::SessionDir& s) { return fs::absolute(s.dir()).lexically_normal().string(); };
+  std::vector<double> sigma;
+  for (const calib::RigCalibration& c : cals) sigma.push_back(blur_sigma_to_correct(options.extraction, c));
+  std::size_t positions = 0;
+  for (const auto& f : frames) positions += f.size();
+  const bool one_sigma = std::all_of(sigma.begin(), sigma.end(), [&](double v) { return v == sigma[0]; });
+  out.input = {{"kind", sessions.size() == 1 ? "session" : "sessions"},
+               {"path", path_of(sessions[0])},
+               {"sample", sessions[0].manifest().sample},
+               {"colour_space", colour_space_of(sessions[0])},
+               {"positions", positions},
                {"extraction", out.stats.to_json()},
                {"margin_px", options.extraction.margin_px},
-               {"blur_sigma_px", blur_sigma_to_correct(options.extraction, cal)},
+               // -1: each session's own calibration's (listed under "sessions")
+               {"blur_sigma_px", one_sigma ? sigma[0] : -1.0},
                {"valid_margin_px", options.extraction.valid_margin_px},
                {"max_blur_correction", options.extraction.max_blur_correction},
                {"too_sharp", options.extraction.skip_too_sharp ? "skip" : "keep"},
                {"variance", to_string(options.extraction.variance)},
                {"estimator", to_string(options.binning.estimator)}};
+  if (sessions.size() == 1) {
+    out.input["session_sha256"] = acq::session_sha256(sessions[0].dir());
+  } else {
+    Json list = Json::array();
+    for (std::size_t i = 0; i < sessions.size(); ++i)
+      list.push_back({{"path", path_of(sessions[i])},
+                      {"sample", sessions[i].manifest().sample},
+                      {"positions", frames[i].size()},
+                      {"session_sha256", acq::session_sha256(sessions[i].dir())},
+                      {"blur_sigma_px", sigma[i]},
+                      {"extraction", each[i].to_json()}});
+    out.input["sessions"] = std::move(list);
+  }
   if (out.sites) {
     out.input["cfa_sites"] = true;
     Json m = Json::array();
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) m.push_back(out.sites->to_colour_space(i, j));
     out.input["site_to_colour_space"] = m;
+  }
+  return out;
+}
+
+std::vector<fs::path> fitted_sessions(const Json& input) {
+  std::vector<fs::path> out;
+  if (!input.is_object()) return out;
+  const std::string kind = input.value("kind", "");
+  if (kind == "session" && input.contains("path") && input["path"].is_string()) {
+    out.emplace_back(input["path"].get<std::string>());
+  } else if (kind == "sessions" && input.contains("sessions") && input["sessions"].is_array()) {
+    for (const Json& s : input["sessions"])
+      if (s.is_object() && s.contains("path") && s["path"].is_string()) out.emplace_back(s["path"].get<std::string>());
   }
   return out;
 }
@@ -133,7 +224,7 @@ SessionBinOptions bin_options_of_input(const Json& input, SessionBinOptions base
   if (auto v = number("max_blur_correction", std::nullopt)) base.extraction.max_blur_correction = *v;
   // The lens blur and the valid margin: fits made before these rules existed record neither,
   // and were binned without them.
-  base.extraction.blur_sigma_px = *number("blur_sigma_px", 0.0);
+  base.extraction.blur_sigma_px = *number("blur_sigma_px", 0.0);  // -1 (sessions): each one's calibration's
   base.extraction.valid_margin_px = 0;
   if (input.contains("valid_margin_px")) {
     const Json& v = input["valid_margin_px"];
@@ -181,6 +272,36 @@ std::size_t FitInput::measured_bins() const {
   return n;
 }
 
+namespace {
+
+FitInput binned_input(BinnedSession s) {
+  FitInput in;
+  in.table = std::move(s.binned.table);
+  in.sites = std::move(s.sites);
+  in.noise_variance = std::move(s.binned.noise_variance);
+  in.sample = s.input["sample"].get<std::string>();
+  in.input = std::move(s.input);
+  in.stats = s.stats;
+  return in;
+}
+
+}  // namespace
+
+FitInput load_fit_input(const std::vector<fs::path>& paths, const SessionBinOptions& options) {
+  if (paths.size() == 1) return load_fit_input(paths.front(), options);
+  if (paths.empty()) throw DataError("no session or table to fit");
+  std::vector<acq::SessionDir> sessions;
+  for (const fs::path& p : paths) {
+    if (!fs::exists(p)) throw IoError(p.string(), "no such file or folder");
+    if (!fs::is_directory(p) || !fs::exists(p / "session.json"))
+      throw DataError(fmt::format("{}: not a session folder; several inputs are sessions of one paint binned "
+                                  "together (a table's samples are gone: fit a table alone)",
+                                  p.string()));
+    sessions.push_back(acq::SessionDir::open(p));
+  }
+  return binned_input(bin_sessions(sessions, options));
+}
+
 FitInput load_fit_input(const fs::path& path, const SessionBinOptions& options) {
   if (!fs::exists(path)) throw IoError(path.string(), "no such file or folder");
   FitInput in;
@@ -189,14 +310,7 @@ FitInput load_fit_input(const fs::path& path, const SessionBinOptions& options) 
       throw DataError(fmt::format("{}: a folder without session.json; paintlab fit reads a session folder or a "
                                   "MERL .binary table",
                                   path.string()));
-    BinnedSession s = bin_session(acq::SessionDir::open(path), options);
-    in.table = std::move(s.binned.table);
-    in.sites = std::move(s.sites);
-    in.noise_variance = std::move(s.binned.noise_variance);
-    in.sample = s.input["sample"].get<std::string>();
-    in.input = std::move(s.input);
-    in.stats = s.stats;
-    return in;
+    return binned_input(bin_session(acq::SessionDir::open(path), options));
   }
   spdlog::info("reading {}", path.string());
   in.table = brdf::read_merl(path);

@@ -199,9 +199,16 @@ Section fit_section(const fs::path& fit_json, const std::vector<fs::path>& image
   if (!fit.is_object() || !at(fit, {"model"}))
     throw DataError(fit_json.string() + ": not a fit (no key 'model')");
   std::string& s = sec.html;
-  s += fmt::format("<p>Paint <b>{}</b>, model {}, from {} <code>{}</code>.</p>\n", esc(text_of(at(fit, {"name"}))),
-                   esc(text_of(at(fit, {"model"}))), esc(text_of(at(fit, {"input", "kind"}), "input")),
-                   esc(text_of(at(fit, {"input", "path"}), "")));
+  // Several sessions fitted together: each one's folder.
+  std::string source = "<code>" + esc(text_of(at(fit, {"input", "path"}), "")) + "</code>";
+  if (const Json* list = at(fit, {"input", "sessions"}); list && list->is_array() && !list->empty()) {
+    source.clear();
+    for (const Json& one : *list)
+      source += (source.empty() ? "" : ", ") + std::string("<code>") + esc(text_of(at(one, {"path"}), "")) + "</code>";
+    source = fmt::format("{} together: {}", list->size(), source);
+  }
+  s += fmt::format("<p>Paint <b>{}</b>, model {}, from {} {}.</p>\n", esc(text_of(at(fit, {"name"}))),
+                   esc(text_of(at(fit, {"model"}))), esc(text_of(at(fit, {"input", "kind"}), "input")), source);
   s += convergence_part(fit, sec);
   s += parameters_part(fit);
   s += residual_part(fit);

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "paintlab/acquisition/session.h"
+#include "paintlab/acquisition/session_reader.h"
 #include "paintlab/brdf/cook_torrance.h"
 #include "paintlab/brdf/merl.h"
 #include "paintlab/brdf/paint.h"
@@ -19,6 +20,7 @@
 #include "paintlab/core/json.h"
 #include "paintlab/fitting/coverage.h"
 #include "paintlab/fitting/hole_fill.h"
+#include "paintlab/fitting/session_binning.h"
 #include "paintlab/sim/paint.h"
 #include "sim_session.h"
 #include "synthetic.h"
@@ -255,6 +257,95 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   // tests/integration/fitting/sim_pipeline_test.cpp's.
   for (int c = 0; c < 3; ++c) EXPECT_THAT(ct->kd[c], test::NearRel(truth->kd[c], 0.03)) << c;
   EXPECT_THAT(ct->lobes[1].m, test::NearRel(truth->lobes[1].m, 0.03));
+}
+
+// Several sessions of one paint (other spheres, or the sphere turned on its stand) are binned
+// into one table and fitted together: every session's samples in the same bins. Here the same
+// images twice under two sample names: every bin twice the samples at the same mean.
+TEST(FitCli, FitsSeveralSessionsOfOnePaintTogether) {
+  const brdf::PaintSpec spec = brdf::load_paint_file(test::source_dir() / "paints/solid-blue.toml");
+  const auto sim = test_support::make_sim_session(sim::sim_paint(spec), small_sweep());
+  const fs::path a = sim->dir / "a", b = sim->dir / "b", srgb = sim->dir / "srgb";
+  test_support::write_session_folder(*sim, a, "Solid Blue #2");
+  test_support::write_session_folder(*sim, b, "Solid Blue #2 turned");
+  test_support::write_session_folder(*sim, srgb, "Solid Blue #2", 0, "linear sRGB (D65)");
+  SessionBinOptions o;
+  o.calib_dir = sim->calibration_dir();
+  const BinnedSession one = bin_session(acq::SessionDir::open(a), o);
+  const BinnedSession two = bin_sessions({acq::SessionDir::open(a), acq::SessionDir::open(b)}, o);
+  EXPECT_EQ(two.stats.samples, 2 * one.stats.samples);
+  ASSERT_GT(one.binned.table.count_in_state(brdf::BinState::Measured), 10000u);
+  std::size_t checked = 0;
+  for (std::size_t bin = 0; bin < brdf::kMerlBins; ++bin) {
+    if (one.binned.table.count(bin) == 0) continue;
+    ASSERT_EQ(two.binned.table.count(bin), 2 * one.binned.table.count(bin)) << bin;
+    for (int c = 0; c < 3; ++c) ASSERT_THAT(two.binned.table.value(bin)[c], test::NearRel(one.binned.table.value(bin)[c], 1e-5));
+    ++checked;
+  }
+  EXPECT_EQ(checked, one.binned.table.count_in_state(brdf::BinState::Measured));
+  // What fit.json records: each session, its checksum and positions; the sums at the top.
+  EXPECT_EQ(two.input["kind"], "sessions");
+  ASSERT_EQ(two.input["sessions"].size(), 2u);
+  EXPECT_EQ(two.input["sessions"][1]["sample"], "Solid Blue #2 turned");
+  EXPECT_EQ(two.input["sessions"][1]["session_sha256"], acq::session_sha256(b));
+  EXPECT_EQ(two.input["sessions"][0]["positions"].get<std::size_t>(), sim->frames.size());
+  EXPECT_EQ(two.input["positions"].get<std::size_t>(), 2 * sim->frames.size());
+  EXPECT_EQ(two.input["extraction"]["samples"].get<std::uint64_t>(), two.stats.samples);
+  EXPECT_EQ(two.input["sessions"][0]["extraction"]["samples"].get<std::uint64_t>(), one.stats.samples);
+  EXPECT_EQ(fitted_sessions(two.input), (std::vector<fs::path>{fs::absolute(a), fs::absolute(b)}));
+  EXPECT_EQ(fitted_sessions(one.input), std::vector<fs::path>{fs::absolute(a)});
+
+  const std::string calib = " --calib " + sim->calibration_dir().string();
+  const fs::path out = sim->dir / "fit.json";
+  auto r = test::run_paintlab("fit " + a.string() + " " + b.string() + calib + " --lobes 2 --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("measured sample 'Solid Blue #2 turned'"));  // warned: fitted as one paint
+  EXPECT_THAT(r.out, HasSubstr(fmt::format("{} images", 2 * sim->frames.size())));
+  const Json j = read_json_file(out);
+  EXPECT_EQ(j["input"]["kind"], "sessions");
+  EXPECT_EQ(j["name"], "solid-blue--2");  // the first session's sample
+  const brdf::PaintSpec fitted = brdf::paint_from_json(j, "fit.json");
+  ASSERT_NE(fitted.cook_torrance(), nullptr);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_THAT(fitted.cook_torrance()->kd[c], test::NearRel(spec.cook_torrance()->kd[c], 0.03)) << c;
+  // export --merl bins the fit's sessions again, both of them.
+  const fs::path merl = sim->dir / "both.binary";
+  r = test::run_paintlab("export " + out.string() + calib + " --merl " + merl.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const brdf::MerlTable exported = brdf::read_merl(merl);
+  for (std::size_t bin = 0; bin < brdf::kMerlBins; bin += 97) {
+    if (two.binned.table.count(bin) > 0) {
+      ASSERT_THAT(exported.value(bin)[1], test::NearRel(two.binned.table.value(bin)[1], 1e-5)) << bin;
+    }
+  }
+  // `paintlab bin` takes several sessions as well.
+  const fs::path binned = sim->dir / "two.binary";
+  r = test::run_paintlab("bin " + a.string() + " " + b.string() + calib + " --out " + binned.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(sim->dir / "two.coverage.exr"));
+  const brdf::MerlTable bin_table = brdf::read_merl(binned);
+  for (std::size_t bin = 0; bin < brdf::kMerlBins; bin += 97)
+    ASSERT_THAT(bin_table.value(bin)[1],
+                test::NearRel(two.binned.table.count(bin) > 0 ? two.binned.table.value(bin)[1] : -1.0, 1e-5))
+        << bin;
+
+  // What cannot be fitted together, nothing written.
+  const fs::path bad = sim->dir / "bad.json";
+  r = test::run_paintlab("fit " + a.string() + " " + a.string() + calib + " --out " + bad.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("given twice"));
+  r = test::run_paintlab("fit " + a.string() + " " + merl.string() + calib + " --out " + bad.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr(merl.string() + ": not a session folder"));
+  r = test::run_paintlab("fit " + a.string() + " " + srgb.string() + calib + " --out " + bad.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("need one colour space"));
+  r = test::run_paintlab("fit " + a.string() + " " + b.string() + calib + " --flakes " +
+                         (sim->dir / "flakes.json").string() + " --out " + bad.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--flakes measures one session's flakes"));
+  EXPECT_FALSE(fs::exists(bad));
+  EXPECT_FALSE(fs::exists(sim->dir / "flakes.json"));
 }
 
 TEST(FitCli, SessionsWithMissingPositionsOrWithoutCalibrationAreRejected) {

@@ -90,11 +90,17 @@ TEST(OutputGuard, EveryFileBelowAnEvidenceFolderIsAnInput) {
 TEST(OutputGuard, WhatAFitWasFittedToIsAnInputOfItsExport) {
   test::TempDir tmp;
   test::write_text(tmp / "fit.json", R"({"input": {"path": "/lab/s1/table.merl", "kind": "merl"}})");
+  test::write_text(tmp / "one.json", R"({"input": {"path": "/lab/s1", "kind": "session"}})");
+  test::write_text(tmp / "two.json", R"({"input": {"path": "/lab/s1", "kind": "sessions",
+                                          "sessions": [{"path": "/lab/s1"}, {"path": "/lab/s2"}]}})");
   test::write_text(tmp / "old.json", R"({"parameters": {}})");
   test::write_text(tmp / "bad.json", "{not json");
-  EXPECT_EQ(fit::fitted_input_of(tmp / "fit.json"), fs::path("/lab/s1/table.merl"));
-  EXPECT_EQ(fit::fitted_input_of(tmp / "old.json"), fs::path());
-  EXPECT_EQ(fit::fitted_input_of(tmp / "bad.json"), fs::path());      // export names the problem
-  EXPECT_EQ(fit::fitted_input_of(tmp / "paint.axf.h5"), fs::path());  // not a fit.json
-  EXPECT_EQ(fit::fitted_input_of(tmp / "missing.json"), fs::path());
+  using Paths = std::vector<fs::path>;
+  EXPECT_EQ(fit::fitted_inputs_of(tmp / "fit.json"), Paths{"/lab/s1/table.merl"});
+  EXPECT_EQ(fit::fitted_inputs_of(tmp / "one.json"), Paths{"/lab/s1"});
+  EXPECT_EQ(fit::fitted_inputs_of(tmp / "two.json"), (Paths{"/lab/s1", "/lab/s2"}));  // every session fitted
+  EXPECT_EQ(fit::fitted_inputs_of(tmp / "old.json"), Paths{});
+  EXPECT_EQ(fit::fitted_inputs_of(tmp / "bad.json"), Paths{});      // export names the problem
+  EXPECT_EQ(fit::fitted_inputs_of(tmp / "paint.axf.h5"), Paths{});  // not a fit.json
+  EXPECT_EQ(fit::fitted_inputs_of(tmp / "missing.json"), Paths{});
 }

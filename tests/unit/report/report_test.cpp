@@ -208,6 +208,18 @@ TEST(Report, FlakesBesideAFitGiveASparkleSectionWithTheInstrumentNumbers) {
   EXPECT_FALSE(r.missing.empty());
 }
 
+TEST(Report, AFitOfSeveralSessionsNamesEachOne) {
+  test::TempDir dir;
+  Json fit = fit_json(true);
+  fit["input"] = {{"kind", "sessions"},
+                  {"path", "/lab/silver-a"},
+                  {"colour_space", "linear sRGB (D65)"},
+                  {"sessions", {{{"path", "/lab/silver-a"}}, {{"path", "/lab/silver-b"}}}}};
+  write_json_file(dir / "fit.json", fit);
+  const std::string html = report_of(dir / "fit.json");
+  EXPECT_THAT(html, HasSubstr("from sessions 2 together: <code>/lab/silver-a</code>, <code>/lab/silver-b</code>"));
+}
+
 TEST(Report, AFitThatDidNotConvergeIsShownAsFailing) {
   test::TempDir dir;
   write_json_file(dir / "fit.json", fit_json(false));

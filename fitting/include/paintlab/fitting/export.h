@@ -25,9 +25,9 @@
 
 namespace paintlab::fit {
 
-// The table or session a fit.json was fitted to (its "input" path, which export --merl
+// The table or sessions a fit.json was fitted to (its "input" paths, which export --merl
 // reads); empty for anything else, or a file that cannot be read (export names its problem).
-std::filesystem::path fitted_input_of(const std::filesystem::path& file);
+std::vector<std::filesystem::path> fitted_inputs_of(const std::filesystem::path& file);
 
 // `paintlab export INPUT... [--axf FILE] [--merl FILE] ...`.
 struct ExportRequest {

@@ -182,6 +182,18 @@ BinnedTable bin_frames(const std::vector<HdrFrame>& frames, const calib::RigCali
                        const ExtractionOptions& extraction, const BinningOptions& binning,
                        ExtractionStats* stats = nullptr);
 
+// Frames taken with one calibration: one session's, when several sessions of a paint (other
+// spheres or orientations of the sample) are binned into one table (session_binning.h
+// bin_sessions). Each group is extracted with its own calibration, and every sample goes
+// into the same bins, in group order then frame order (reproducible whatever the threads).
+struct CalibratedFrames {
+  std::vector<HdrFrame> frames;
+  const calib::RigCalibration* calibration = nullptr;
+  ExtractionStats* stats = nullptr;  // optional: this group's counts
+};
+BinnedTable bin_frames(const std::vector<CalibratedFrames>& groups, const ExtractionOptions& extraction,
+                       const BinningOptions& binning, ExtractionStats* stats = nullptr);
+
 // The frames of a colour session binned at their colour-filter-array sites
 // (ExtractionOptions::cfa_sites, which this sets): one table per camera colour (R, G, B),
 // each holding in all three channels the values of that colour's sites, and the map from
@@ -193,5 +205,9 @@ struct SiteTables {
 SiteTables bin_frames_by_site(const std::vector<HdrFrame>& frames, const calib::RigCalibration& calibration,
                               ExtractionOptions extraction, const BinningOptions& binning,
                               ExtractionStats* stats = nullptr);
+// The groups' frames by site into the same three tables: DataError when two groups' colours
+// map to the colour space differently (a site's camera RGB would mean two colours).
+SiteTables bin_frames_by_site(const std::vector<CalibratedFrames>& groups, ExtractionOptions extraction,
+                              const BinningOptions& binning, ExtractionStats* stats = nullptr);
 
 }  // namespace paintlab::fit

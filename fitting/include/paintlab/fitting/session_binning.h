@@ -45,7 +45,11 @@ struct BinnedSession {
   // fit.json's "input": {"kind": "session", "path", "sample", "positions", "session_sha256",
   // "extraction" (ExtractionStats), "margin_px", "blur_sigma_px" (the lens blur
   // corrected, 0: none), "valid_margin_px", "variance", "estimator", and with cfa_sites
-  // "cfa_sites": true and "site_to_colour_space" (3x3 row-major)}.
+  // "cfa_sites": true and "site_to_colour_space" (3x3 row-major)}. Several sessions binned
+  // together: "kind": "sessions", "path" and "sample" the first's, "positions" and
+  // "extraction" their sums, "blur_sigma_px" -1 when their calibrations' differ, and
+  // "sessions": [{"path", "sample", "positions", "session_sha256", "blur_sigma_px",
+  // "extraction"}] (no top-level "session_sha256").
   Json input;
 };
 
@@ -63,6 +67,21 @@ std::optional<std::string> site_fit_refusal(const acq::SessionDir& session, cons
 // DataError naming the missing positions and `paintlab measure --resume` otherwise).
 BinnedSession bin_session(const acq::SessionDir& session, const SessionBinOptions& options);
 
+// Several sessions of one paint (other spheres of it, or the sphere turned on its stand)
+// binned into one table: each extracted with its own calibration (a calibration folder
+// `calib_dir` overrides them all), every sample into the same bins, so a bin holds the mean
+// of all the sessions' samples. For sparkling paints this is how a fit gets more
+// independent flakes at grazing angles (docs/fitting.md "Sparkle"). At the filter-array sites
+// only when every session can be (SiteFit::On: DataError naming the one that cannot).
+// DataError for a session given twice (a path or checksum seen before), for sessions in
+// different colour spaces, or whose sites map to the colour space differently; a warning
+// when their samples' names differ.
+BinnedSession bin_sessions(const std::vector<acq::SessionDir>& sessions, const SessionBinOptions& options);
+
+// The session folders a fit.json's "input" was binned from ("session": its path;
+// "sessions": each one's), empty for a table.
+std::vector<std::filesystem::path> fitted_sessions(const Json& input);
+
 // What a fit reads: a session folder (extracted and binned with `options`) or a MERL .binary
 // table. For a table, the coverage map `paintlab bin` wrote beside it (coverage_map_path_for)
 // marks the bins `--fill` filled, which are left out (filled bins are not measurements); a
@@ -79,6 +98,9 @@ struct FitInput {
   std::size_t measured_bins() const;     // of the table, or of the three site tables together
 };
 FitInput load_fit_input(const std::filesystem::path& path, const SessionBinOptions& options);
+// Several inputs: sessions only, binned together (bin_sessions); DataError naming a table
+// among them (a table's samples are gone: only sessions can be binned together).
+FitInput load_fit_input(const std::vector<std::filesystem::path>& paths, const SessionBinOptions& options);
 
 // A Cook-Torrance fit of `lobes` lobes made now of `in` (what `paintlab colour` and
 // `paintlab flakes` do when given no fit): logged as such, with a warning when it does not
