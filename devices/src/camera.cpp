@@ -17,10 +17,6 @@ constexpr EnumNames<PixelFormat, 16> kPixelFormatNames{{
     {PixelFormat::RGB8, "RGB8"},
 }};
 
-constexpr EnumNames<CfaPattern, 5> kCfaNames{{
-    {CfaPattern::None, "none"}, {CfaPattern::RG, "RG"}, {CfaPattern::GR, "GR"}, {CfaPattern::GB, "GB"}, {CfaPattern::BG, "BG"},
-}};
-
 const char* to_string(PixelFormat f) { return enum_name(kPixelFormatNames, f, "Mono16"); }
 
 PixelFormat pixel_format_from_string(const std::string& s) {
@@ -101,18 +97,6 @@ std::optional<PixelFormat> pixel_format_from_pfnc(std::uint32_t code) {
   for (const auto& [format, c] : kPfncCodes)
     if (c == code) return format;
   return std::nullopt;
-}
-
-const char* to_string(CfaPattern p) { return enum_name(kCfaNames, p, "none"); }
-
-CfaPattern cfa_pattern_from_string(const std::string& name, const std::string& where) {
-  return enum_from_name(kCfaNames, name, "colour-filter arrangement", where);
-}
-
-int cfa_colour(CfaPattern p, int x, int y) {
-  // The top-left 2x2 block, row by row, as colour indices.
-  static constexpr int kBlocks[5][4] = {{-1, -1, -1, -1}, {0, 1, 1, 2}, {1, 0, 2, 1}, {1, 2, 0, 1}, {2, 1, 1, 0}};
-  return kBlocks[static_cast<int>(p)][2 * (y & 1) + (x & 1)];
 }
 
 }  // namespace paintlab::dev

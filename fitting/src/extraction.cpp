@@ -14,6 +14,7 @@
 #include "paintlab/brdf/rusinkiewicz.h"
 #include "paintlab/calibration/record.h"
 #include "paintlab/calibration/sphere.h"
+#include "paintlab/core/cfa.h"
 #include "paintlab/core/colour.h"
 #include "paintlab/core/enum_names.h"
 #include "paintlab/core/error.h"
@@ -131,16 +132,6 @@ bool screen_pixel(std::size_t i, const Eigen::Vector3f& point, const Eigen::Vect
     return false;
   }
   return true;
-}
-
-// The colour (0 R, 1 G, 2 B) of each site of the top-left 2x2 block, row by row, of a
-// GenICam Bayer arrangement as paintlab.cfa names it ("RG": R G / G B); empty otherwise.
-std::optional<std::array<int, 4>> cfa_block(const std::string& name) {
-  if (name == "RG") return std::array<int, 4>{0, 1, 1, 2};
-  if (name == "GR") return std::array<int, 4>{1, 0, 2, 1};
-  if (name == "GB") return std::array<int, 4>{1, 2, 0, 1};
-  if (name == "BG") return std::array<int, 4>{2, 1, 1, 0};
-  return std::nullopt;
 }
 
 // The camera RGB of a site table from the stored colour (value) and its variance: v = A s
@@ -322,19 +313,20 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
   const ImageF* const* variance = channels.variance.data();
   const bool with_variance = channels.with_variance;
   const ImageF* valid = channels.valid;
-  std::array<int, 4> block{};
+  CfaPattern pattern = CfaPattern::None;
   SiteInverse inverse;
   if (sites) {
     const auto attr = [&](const char* key) {
       const auto it = hdr.attributes.find(key);
       return it == hdr.attributes.end() ? std::string() : it->second;
     };
-    const auto b = cfa_block(attr("paintlab.cfa"));
-    if (!b || value[0] == value[1])
+    const std::string cfa = attr("paintlab.cfa");
+    for (const CfaPattern p : {CfaPattern::RG, CfaPattern::GR, CfaPattern::GB, CfaPattern::BG})
+      if (cfa == to_string(p)) pattern = p;
+    if (pattern == CfaPattern::None || value[0] == value[1])
       throw DataError(fmt::format("{}: not the colour image of a Bayer camera (no paintlab.cfa attribute naming RG, "
                                   "GR, GB or BG): only such sessions are fitted at their filter-array sites",
                                   source));
-    block = *b;
     const std::string space = attr("paintlab.colour_space");
     if (space != colour::kCameraRgb) {
       if (!site_to_srgb_)
@@ -355,7 +347,7 @@ ExtractionStats SphereSampler::extract_into(const ExrImage& hdr, double table_an
   std::vector<float> mosaic, mosaic_var;
   auto site_colour = [&](std::size_t i) {
     const std::size_t x = i % static_cast<std::size_t>(width_), y = i / static_cast<std::size_t>(width_);
-    return block[2 * (y & 1) + (x & 1)];
+    return cfa_colour(pattern, static_cast<int>(x), static_cast<int>(y));
   };
   if (sites) {
     const std::size_t n = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);

@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 
+#include "paintlab/core/cfa.h"
 #include "paintlab/core/image.h"
 #include "paintlab/core/result.h"
 
@@ -21,10 +22,11 @@ enum class PixelFormat {
   RGB8,
 };
 
-// A Bayer colour filter array as GenICam names it: the colours of the 2x2 block at the
-// image's top-left corner, row by row (RG: R G / G B). OpenCV names the same sensor after the
-// block at row 1, column 1 (GenICam RG is OpenCV's BayerBG): acq::demosaic translates.
-enum class CfaPattern { None, RG, GR, GB, BG };
+// The Bayer colour filter array (core/cfa.h), named here as the drivers have always used it.
+using paintlab::CfaPattern;
+using paintlab::cfa_colour;
+using paintlab::cfa_pattern_from_string;
+using paintlab::to_string;
 
 const char* to_string(PixelFormat f);
 // Parses a name of to_string ("Mono16", "BayerRG12", "RGB8"); DataError listing them otherwise.
@@ -32,11 +34,6 @@ PixelFormat pixel_format_from_string(const std::string& s);
 int bit_depth(PixelFormat f);        // significant bits of each value: 8, 12, 16
 int channels(PixelFormat f);         // values per pixel: 3 for RGB8, else 1 (a Bayer frame is one mosaic)
 CfaPattern cfa_pattern(PixelFormat f);  // None for Mono and RGB8
-const char* to_string(CfaPattern p);  // "none", "RG", "GR", "GB", "BG"
-// The arrangement named (to_string's names); DataError naming `where` and the names otherwise.
-CfaPattern cfa_pattern_from_string(const std::string& name, const std::string& where);
-// The colour (0 R, 1 G, 2 B) that pixel (x, y) of a `p` mosaic records; -1 for None.
-int cfa_colour(CfaPattern p, int x, int y);
 // The format's GenICam PFNC code (what the PixelFormat register and a buffer's header hold;
 // Aravis' ARV_PIXEL_FORMAT_* values), and back (nullopt for a format paintlab does not read).
 std::uint32_t pfnc_code(PixelFormat f);
