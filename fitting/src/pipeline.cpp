@@ -92,7 +92,7 @@ std::string ct_report(const CookTorranceFit& f) {
                      p.ks[0], p.ks[1], p.ks[2], p.m, e.m, p.r, e.r);
   }
   s += region_lines(f.residual);
-  if (std::isfinite(f.residual.sparkle_excess) && f.residual.sparkle_excess > kSparkleExcess)
+  if (std::isfinite(f.residual.sparkle_excess) && f.residual.sparkle_excess > kSparkleDrawNote)
     s += "  note              the session sparkles: the +- count the samples as independent, but a flake lobe's\n"
          "                    split into ks and r rests on the few flakes lit near grazing (theta_d > 65 deg) and\n"
          "                    differs more between panels of a paint; sessions of other spheres or orientations\n"

@@ -173,7 +173,8 @@ TEST(SimPipeline, DarkMetallicUnderLensBlurAndANoiseFloor) {
 // fit points of at least 16 samples (the log of a mean over many samples is not biased by
 // the glints). Measured state (docs/fitting.md "Sparkle"): kd, the broad flake lobe and the
 // clear coat meet the targets (ks 3 %, m 2 %, r 5 %). The medium flake lobe does not, and
-// cannot with this measurement: its ks and r separate only through the Fresnel rise at
+// cannot from one sweep of one sphere (several panels fitted together, `paintlab fit S1 S2
+// S3`, average the draw out: docs/fitting.md): its ks and r separate only through the Fresnel rise at
 // theta_d > 65 deg, where the glints of a few hundred fixed flakes decide; over three flake
 // fields (simulator seeds) its ks came out -15 %, +14 %, -31 % and r +6 %, -20 %, +26 %
 // (log residuals; linear residuals scatter more), its m 1.4-4.6 % low. Asserted: what this

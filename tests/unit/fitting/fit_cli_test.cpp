@@ -30,6 +30,7 @@ namespace paintlab::fit {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 namespace fs = std::filesystem;
 
 using test_support::blue_params;
@@ -244,6 +245,7 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   EXPECT_EQ(j["residual"]["min_samples"], 1);
   EXPECT_LT(j["residual"]["sparkle_excess"].get<double>(), kSparkleExcess);
   EXPECT_THAT(r.out, HasSubstr("fit points        a point per bin (glossy samples spread"));
+  EXPECT_THAT(r.out, Not(HasSubstr("the session sparkles")));  // no flakes, no note about their draw
   // The extraction rules it was binned with: no blur in this calibration, the 2 px margin.
   EXPECT_EQ(j["input"]["blur_sigma_px"].get<double>(), 0.0);
   EXPECT_EQ(j["input"]["valid_margin_px"].get<int>(), 2);

@@ -70,6 +70,11 @@ FitResiduals fit_residuals_from_string(std::string_view s, std::string_view wher
 // sparkles, and the sparkle_excess above which it does.
 inline constexpr std::uint32_t kSparklePooling = 16;
 inline constexpr double kSparkleExcess = 20.0;
+// Above this the fit's report says that a flake lobe's ks / r split is the flakes' draw: few
+// flakes a pixel (1450 and 8320 on the 640 x 480 and full demo rigs). Not at 22.5 (the quick
+// demo's half-resolution rig, many flakes a pixel) nor 25.6 (the full demo rig's silver
+// without flakes: its lobes change within a bin by more than the low noise of that rig).
+inline constexpr double kSparkleDrawNote = 100.0;
 
 // How much the samples of the glossy region (theta_h 4-25 deg, outside the clear coat's peak)
 // spread beyond their noise: sum over its bins of (n - 1) x sample variance over the same sum
