@@ -370,6 +370,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
           for (int c = 0; c < 3; ++c) {
             previous.value[c] += g.value[c];
             previous.rho[c] += g.rho[c];
+            previous.spread[c] += g.spread[c];
           }
         } else {
           if (have_previous) emit(previous);

@@ -249,6 +249,28 @@ TEST(FitData, DeltaCorrectionTakesTheSamplesSpreadOutsideThePeak) {
   for (const FitBin& b : plain.bins) EXPECT_DOUBLE_EQ(b.target[1], std::log(b.value[1]));
 }
 
+// Pooled points: the correction is the members' spread over the point's samples, the small
+// remainder at a row's end that joins the point before it included (its spread was once left
+// out, its samples counted).
+TEST(FitData, APooledPointsCorrectionHoldsEveryMembersSpread) {
+  brdf::MerlTable table;
+  std::vector<float> noise_variance(3 * brdf::kMerlBins, 1e-8f);
+  const int i = 30, j = 20;  // glossy
+  for (int k = 0; k < 5; ++k) {  // 5 bins of 4 samples, relative spread 0.4: 16 + a remainder of 4
+    const std::size_t b = brdf::merl_flat_index({i, j, k});
+    table.set_value(b, brdf::Rgb(1.0, 1.0, 1.0), brdf::BinState::Measured);
+    table.set_statistics(b, 4, brdf::Rgb(0.4, 0.4, 0.4), brdf::merl_bin_centre(b));
+  }
+  FitDataOptions o;
+  o.min_samples = 16;
+  const FitData data = prepare_fit_data(table, o, &noise_variance);
+  ASSERT_EQ(data.bins.size(), 1u);
+  EXPECT_EQ(data.bins[0].count, 20u);
+  EXPECT_EQ(data.bins[0].bins, 5u);
+  EXPECT_NEAR(data.bins[0].bias_variance[1], 0.4 / 20.0, 1e-9);
+  EXPECT_NEAR(data.bins[0].target[1], 0.5 * 0.4 / 20.0, 1e-9);
+}
+
 // The correction reaches the fit: exact values whose samples spread by 0.4 (relative
 // variance) over 4 samples a bin are read as logs biased by -0.05, so the fitted level comes
 // out e^0.05 above the values (and at them with the correction off).
