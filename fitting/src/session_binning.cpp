@@ -70,12 +70,10 @@ std::vector<HdrFrame> session_frames(const acq::SessionDir& session) {
 
 namespace {
 
-// Whether `session` is binned at its filter-array sites with `options` (SiteFit), or the
-// refusal that makes it demosaiced: DataError naming the session for SiteFit::On.
+// Why `session` is not binned at its filter-array sites (SiteFit::Auto, On), or nullopt:
+// DataError naming the session for SiteFit::On.
 std::optional<std::string> sites_refused(const acq::SessionDir& session, const calib::RigCalibration& cal,
                                          const SessionBinOptions& options) {
-  if (options.extraction.cfa_sites) return std::nullopt;
-  if (options.sites == SiteFit::Off) return std::string("--cfa-sites off");
   std::optional<std::string> refusal = site_fit_refusal(session, cal, options.extraction);
   if (refusal && options.sites == SiteFit::On)
     throw DataError(fmt::format("{}: cannot be fitted at its filter-array sites (--cfa-sites on): {}",
