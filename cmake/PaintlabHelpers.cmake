@@ -63,6 +63,10 @@ function(paintlab_add_test name)
   set(target test_${name})
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_DEPS} paintlab_test_support paintlab_warnings)
+  # A test program's own sources (assertions, gtest and gmock templates) compile at -O1 in the
+  # optimised builds: a quarter less compile time than -O2 (test_acquisition's largest batch
+  # 23.6 -> 17.9 s, 2026-12-06), and the work they test is in the libraries, built at -O2.
+  target_compile_options(${target} PRIVATE $<$<CONFIG:RelWithDebInfo,Release>:-O1>)
   # PAINTLAB_BUILD_SLOW_TESTS=OFF (the sanitizer build of .ci/run, which runs only the unit and
   # integration tests not labelled slow) leaves the slow and e2e programs out of the default
   # build and out of ctest; they run in the normal build.
