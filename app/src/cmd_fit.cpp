@@ -60,6 +60,7 @@ struct FitArgs {
   int max_iterations = 100;
   std::string min_samples = "auto";
   std::string residuals = "log";
+  std::string log_correction = "spread";
   std::string flakes;  // the flakes.json to measure against the fit (a session only)
   ExtractArgs extract;
 };
@@ -85,6 +86,9 @@ int run_fit(const FitArgs& a) {
   shared.min_samples = parse_min_samples(a.min_samples);
   fit::FitRequest req = fit::FitRequest::with(fit::fit_model_from_string(a.model, "--model"), "fitted", shared);
   req.cook_torrance.data.residuals = fit::fit_residuals_from_string(a.residuals, "--residuals");
+  if (a.log_correction != "spread" && a.log_correction != "scatter")
+    throw UsageError(fmt::format("--log-correction: '{}' is neither spread nor scatter", a.log_correction));
+  req.cook_torrance.data.point_scatter = req.axf_carpaint.data.point_scatter = a.log_correction == "scatter";
   req.check();
   std::vector<fs::path> inputs;
   for (const std::string& i : a.inputs) {
@@ -227,6 +231,14 @@ void register_fit_commands(CLI::App& app) {
   fit->add_option("--residuals", args->residuals,
                   "Cook-Torrance residuals: log, or linear (weights from the neighbouring bins and the sparkle-aware "
                   "sample spread: unbiased for bin means under flake sparkle; see docs/fitting.md)")
+      ->capture_default_str();
+  sets_fields(fit->add_option("--log-correction", args->log_correction,
+                              "Variance the log residuals' bias correction takes for a fit point: spread (its "
+                              "samples' spread / n, as if independent), or scatter (at least what neighbouring fit "
+                              "points' log values scatter by: under flake sparkle a glint is seen again in the same "
+                              "bin; brings a flake lobe's level to the truth but moves its ks / r split; "
+                              "docs/fitting.md \"Sparkle\")"),
+              {"FitDataOptions::point_scatter"})
       ->capture_default_str();
   fit->add_option("--flakes", args->flakes,
                   "A session: also measure its flakes against the fit and write this flakes.json (as `paintlab "

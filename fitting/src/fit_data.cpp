@@ -107,6 +107,94 @@ void linear_weights(FitData& data, const brdf::MerlTable& table, const std::vect
   }
 }
 
+// The point variance the delta correction takes (FitDataOptions::point_scatter): at least the
+// scatter of the fit points' own log values, measured where the points are, not assumed from
+// their samples as spread / n. The samples of a point are not independent under sparkle: a
+// glint of one flake seen by one pixel in consecutive images lands in the same bin several
+// times, so spread / n understates the variance of the point's mean and the correction of its
+// log falls short (the same samples counted twice halve it; docs/fitting.md "Sparkle").
+// Measured with second differences along phi_d inside each (theta_h, theta_d) row,
+// L(a) - 2 L(b) + L(c) over three consecutive points, whose expectation of the square is
+// t2(a) + 4 t2(b) + t2(c) for independent points and free of any linear trend of the model
+// along the row; the ratio of the two sums over a window of rows (theta_h +-1, theta_d +-2)
+// scales t2 of every point of the window's centre row. Not below 1 (a trend's curvature or a
+// lobe changing inside its points reads as scatter the samples do not have, and the samples'
+// own spread stays the floor), and only outside the peak (as the spread itself).
+void scale_by_point_scatter(FitData& data) {
+  constexpr int kRowsH = 1, kRowsD = 2;    // window half widths (rows)
+  constexpr double kMinTriples = 30.0;    // below this the window keeps the samples' t2
+  struct Sums {
+    std::array<double, 3> scatter{0, 0, 0}, expected{0, 0, 0};
+    std::array<double, 3> triples{0, 0, 0};
+  };
+  std::vector<Sums> row(static_cast<std::size_t>(kMerlThetaH * kMerlThetaD));
+  auto row_of = [](const FitBin& b) {
+    const brdf::MerlBin mb = brdf::merl_bin_of_flat(b.bin);
+    return static_cast<std::size_t>(mb.theta_h * kMerlThetaD + mb.theta_d);
+  };
+  // data.bins is in emission order (theta_h, theta_d, then phi_d ascending): three consecutive
+  // points of one row are neighbours along phi_d.
+  for (std::size_t q = 0; q + 2 < data.bins.size(); ++q) {
+    const FitBin &a = data.bins[q], &b = data.bins[q + 1], &c = data.bins[q + 2];
+    const std::size_t r = row_of(b);
+    if (row_of(a) != r || row_of(c) != r) continue;
+    if (a.region == Region::Peak || b.region == Region::Peak || c.region == Region::Peak) continue;
+    for (int k = 0; k < 3; ++k) {
+      if (!(a.value[k] > 0.0 && b.value[k] > 0.0 && c.value[k] > 0.0)) continue;
+      const double d = std::log(a.value[k]) - 2.0 * std::log(b.value[k]) + std::log(c.value[k]);
+      row[r].scatter[k] += d * d;
+      row[r].expected[k] += a.bias_variance[k] + 4.0 * b.bias_variance[k] + c.bias_variance[k];
+      row[r].triples[k] += 1.0;
+    }
+  }
+  // Window sums from summed-area tables over (theta_h, theta_d).
+  constexpr int H = kMerlThetaH, D = kMerlThetaD;
+  std::vector<Sums> sat(static_cast<std::size_t>((H + 1) * (D + 1)));
+  auto at = [&](int i, int j) -> Sums& { return sat[static_cast<std::size_t>(i * (D + 1) + j)]; };
+  for (int i = 0; i < H; ++i)
+    for (int j = 0; j < D; ++j) {
+      const Sums& s = row[static_cast<std::size_t>(i * D + j)];
+      Sums& t = at(i + 1, j + 1);
+      const Sums &up = at(i, j + 1), &left = at(i + 1, j), &diag = at(i, j);
+      for (int k = 0; k < 3; ++k) {
+        t.scatter[k] = s.scatter[k] + up.scatter[k] + left.scatter[k] - diag.scatter[k];
+        t.expected[k] = s.expected[k] + up.expected[k] + left.expected[k] - diag.expected[k];
+        t.triples[k] = s.triples[k] + up.triples[k] + left.triples[k] - diag.triples[k];
+      }
+    }
+  std::vector<std::array<double, 3>> factor(row.size(), {1.0, 1.0, 1.0});
+  for (int i = 0; i < H; ++i)
+    for (int j = 0; j < D; ++j) {
+      const int i0 = std::max(0, i - kRowsH), i1 = std::min(H, i + kRowsH + 1);
+      const int j0 = std::max(0, j - kRowsD), j1 = std::min(D, j + kRowsD + 1);
+      const Sums &a = at(i1, j1), &b = at(i0, j1), &c = at(i1, j0), &d = at(i0, j0);
+      for (int k = 0; k < 3; ++k) {
+        const double scatter = a.scatter[k] - b.scatter[k] - c.scatter[k] + d.scatter[k];
+        const double expected = a.expected[k] - b.expected[k] - c.expected[k] + d.expected[k];
+        const double triples = a.triples[k] - b.triples[k] - c.triples[k] + d.triples[k];
+        if (triples >= kMinTriples && expected > 0.0)
+          factor[static_cast<std::size_t>(i * D + j)][k] = std::max(1.0, scatter / expected);
+      }
+    }
+  std::vector<double> glossy;
+  for (FitBin& b : data.bins) {
+    if (b.region == Region::Peak) continue;
+    const auto& f = factor[row_of(b)];
+    if (b.region == Region::Glossy)
+      for (int k = 0; k < 3; ++k)
+        if (b.value[k] > 0.0) glossy.push_back(f[k]);
+    for (int k = 0; k < 3; ++k) {
+      if (!(b.value[k] > 0.0)) continue;
+      b.bias_variance[k] *= f[k];
+      b.target[k] = std::log(b.value[k]) + 0.5 * b.bias_variance[k];
+    }
+  }
+  if (!glossy.empty()) {
+    std::nth_element(glossy.begin(), glossy.begin() + static_cast<std::ptrdiff_t>(glossy.size() / 2), glossy.end());
+    data.point_scatter = glossy[glossy.size() / 2];
+  }
+}
+
 }  // namespace
 
 void FitDataOptions::check() const {
@@ -384,6 +472,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
     throw DataError(fmt::format("the table has no measured bins with positive values{}: nothing to fit",
                                 options.min_count > 1 ? fmt::format(" and at least {} samples", options.min_count)
                                                       : std::string()));
+  if (data.has_statistics && options.delta_correction && options.point_scatter) scale_by_point_scatter(data);
   data.linear = options.residuals == FitResiduals::Linear;
   if (data.linear) linear_weights(data, table, member_bin, usable);
   return data;
@@ -397,6 +486,7 @@ FitData combine_site_data(std::array<FitData, 3> per_site) {
   out.linear = per_site[1].linear;
   out.min_samples = per_site[1].min_samples;
   out.sparkle_excess = per_site[1].sparkle_excess;
+  out.point_scatter = per_site[1].point_scatter;
   for (int c = 0; c < 3; ++c) {
     FitData& d = per_site[static_cast<std::size_t>(c)];
     const auto offset = static_cast<std::uint32_t>(out.members.size());
@@ -437,6 +527,7 @@ Json ResidualReport::to_json() const {
           {"noise_source", to_string(noise_source)},
           {"min_samples", min_samples},
           {"sparkle_excess", number_or_null(sparkle_excess)},
+          {"point_scatter", number_or_null(point_scatter)},
           {"regions", regions_json}, {"curves", curves_json}, {"coverage", coverage_json}};
 }
 
@@ -493,6 +584,7 @@ ResidualReport residual_report(const FitData& data, const std::vector<double>& m
   rep.noise_source = data.noise_source;
   rep.min_samples = data.min_samples;
   rep.sparkle_excess = data.sparkle_excess;
+  rep.point_scatter = data.point_scatter;
   std::array<double, kRegionCount + 1> sq{}, noise{};
   for (std::size_t q = 0; q < data.bins.size(); ++q) {
     const FitBin& b = data.bins[q];

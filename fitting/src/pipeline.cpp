@@ -71,6 +71,9 @@ std::string region_lines(const ResidualReport& r) {
       s += fmt::format(" (glossy samples spread {:.3g} x their noise: {})", r.sparkle_excess,
                        r.sparkle_excess > kSparkleExcess ? "sparkle" : "no sparkle");
     s += "\n";
+    if (std::isfinite(r.point_scatter) && r.point_scatter > 1.0)
+      s += fmt::format("                    glossy points scatter {:.3g} x their samples' spread / n (dependent samples: "
+                       "the log correction takes it)\n", r.point_scatter);
   }
   for (int k = 0; k < kRegionCount; ++k) {
     const RegionResidual& g = r.regions[k];

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <random>
 
 #include "paintlab/brdf/cook_torrance.h"
 #include "paintlab/core/error.h"
@@ -269,6 +270,60 @@ TEST(FitData, APooledPointsCorrectionHoldsEveryMembersSpread) {
   EXPECT_EQ(data.bins[0].bins, 5u);
   EXPECT_NEAR(data.bins[0].bias_variance[1], 0.4 / 20.0, 1e-9);
   EXPECT_NEAR(data.bins[0].target[1], 0.5 * 0.4 / 20.0, 1e-9);
+}
+
+// The correction's point variance is what the points' log values scatter by, when that is more
+// than their samples' spread / n (fit_data.h point_scatter): under sparkle the samples of a
+// point are not independent (a glint seen again in the same bin), and the same samples
+// counted twice must not halve the correction (FitDataOptions::point_scatter,
+// `paintlab fit --log-correction scatter`). Points of 8 samples whose spread says 0.01 for
+// the variance of the log of their mean, whose log values scatter by 0.04 (or by 0.01).
+TEST(FitData, TheCorrectionTakesThePointsScatterWhenTheirSamplesAreNotIndependent) {
+  auto table_of = [](double log_sd, std::uint32_t count, double spread) {
+    brdf::MerlTable table;
+    std::mt19937 rng(test::seed());
+    std::normal_distribution<double> z(0.0, log_sd);
+    for (int i = 28; i <= 32; ++i)  // theta_h about 10 deg, theta_d about 40 deg: glossy
+      for (int j = 18; j <= 22; ++j)
+        for (int k = 0; k < brdf::kMerlPhiD; ++k) {
+          const std::size_t b = brdf::merl_flat_index({i, j, k});
+          const double v = std::exp(z(rng));
+          table.set_value(b, brdf::Rgb(v, v, v), brdf::BinState::Measured);
+          const double var = spread * v * v;  // per-sample relative variance `spread`
+          table.set_statistics(b, count, brdf::Rgb(var, var, var), brdf::merl_bin_centre(b));
+        }
+    return table;
+  };
+  const std::vector<float> noise(3 * brdf::kMerlBins, 1e-8f);
+  FitDataOptions o;
+  o.min_samples = 1;
+  o.point_scatter = true;
+  auto centre = [](const FitData& d) -> const FitBin& {
+    const std::size_t bin = brdf::merl_flat_index({30, 20, 45});
+    for (const FitBin& b : d.bins)
+      if (b.bin == bin) return b;
+    ADD_FAILURE() << "no fit point at the centre";
+    return d.bins.front();
+  };
+  // Dependent samples: the log values scatter 4 x what spread / n says.
+  const FitData dependent = prepare_fit_data(table_of(0.2, 8, 0.08), o, &noise);
+  EXPECT_THAT(centre(dependent).bias_variance[1], NearRel(0.04, 0.1));
+  EXPECT_NEAR(centre(dependent).target[1], std::log(centre(dependent).value[1]) + 0.5 * centre(dependent).bias_variance[1], 1e-12);
+  // The same samples counted twice: spread / n halves, the correction does not.
+  const FitData twice = prepare_fit_data(table_of(0.2, 16, 0.08), o, &noise);
+  ASSERT_EQ(twice.bins.size(), dependent.bins.size());
+  for (std::size_t q = 0; q < twice.bins.size(); q += 37)
+    EXPECT_THAT(twice.bins[q].target[1], NearRel(dependent.bins[q].target[1], 1e-9)) << q;
+  // Independent samples: the log values scatter by spread / n, the correction is spread / n.
+  const FitData independent = prepare_fit_data(table_of(0.1, 8, 0.08), o, &noise);
+  EXPECT_THAT(centre(independent).bias_variance[1], NearRel(0.01, 0.1));
+  EXPECT_GE(centre(independent).bias_variance[1], 0.01 * (1.0 - 1e-6));
+  // Off (the default): spread / n.
+  o.point_scatter = false;
+  const FitData assumed = prepare_fit_data(table_of(0.2, 8, 0.08), o, &noise);
+  EXPECT_NEAR(centre(assumed).bias_variance[1], 0.01, 1e-9);
+  EXPECT_TRUE(std::isnan(assumed.point_scatter));
+  EXPECT_THAT(dependent.point_scatter, NearRel(4.0, 0.1));  // what fit.json's residual reports
 }
 
 // The correction reaches the fit: exact values whose samples spread by 0.4 (relative

@@ -259,18 +259,37 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   // tests/integration/fitting/sim_pipeline_test.cpp's.
   for (int c = 0; c < 3; ++c) EXPECT_THAT(ct->kd[c], test::NearRel(truth->kd[c], 0.03)) << c;
   EXPECT_THAT(ct->lobes[1].m, test::NearRel(truth->lobes[1].m, 0.03));
+  EXPECT_TRUE(j["residual"]["point_scatter"].is_null());  // the default log correction: the samples' spread
+  // --log-correction scatter: the fit points of a solid paint's independent samples scatter as
+  // their spread says (factor near 1), and the fit is the same paint.
+  const fs::path scatter_out = sim->dir / "scatter.json";
+  r = test::run_paintlab("fit " + session.string() + calib + " --lobes 2 --log-correction scatter --out " +
+                         scatter_out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Json js = read_json_file(scatter_out);
+  ASSERT_TRUE(js["residual"]["point_scatter"].is_number());
+  EXPECT_GE(js["residual"]["point_scatter"].get<double>(), 1.0);
+  EXPECT_LT(js["residual"]["point_scatter"].get<double>(), 1.5);
+  const brdf::PaintSpec scatter_fit = brdf::paint_from_json(js, "scatter.json");
+  const auto* cs = scatter_fit.cook_torrance();
+  ASSERT_NE(cs, nullptr);
+  for (int c = 0; c < 3; ++c) EXPECT_THAT(cs->kd[c], test::NearRel(ct->kd[c], 0.01)) << c;
+  r = test::run_paintlab("fit " + session.string() + calib + " --log-correction points --out " +
+                         (sim->dir / "bad.json").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--log-correction: 'points' is neither spread nor scatter"));
+  EXPECT_FALSE(fs::exists(sim->dir / "bad.json"));
 }
 
 // Several sessions of one paint (other spheres, or the sphere turned on its stand) are binned
 // into one table and fitted together: every session's samples in the same bins. Here the same
 // images twice under two sample names: every bin twice the samples at the same mean.
-TEST(FitCli, FitsSeveralSessionsOfOnePaintTogether) {
+TEST(SessionBinning, SeveralSessionsOfOnePaintFillOneTableAndEachIsRecorded) {
   const brdf::PaintSpec spec = brdf::load_paint_file(test::source_dir() / "paints/solid-blue.toml");
   const auto sim = test_support::make_sim_session(sim::sim_paint(spec), small_sweep());
-  const fs::path a = sim->dir / "a", b = sim->dir / "b", srgb = sim->dir / "srgb";
+  const fs::path a = sim->dir / "a", b = sim->dir / "b";
   test_support::write_session_folder(*sim, a, "Solid Blue #2");
   test_support::write_session_folder(*sim, b, "Solid Blue #2 turned");
-  test_support::write_session_folder(*sim, srgb, "Solid Blue #2", 0, "linear sRGB (D65)");
   SessionBinOptions o;
   o.calib_dir = sim->calibration_dir();
   const BinnedSession one = bin_session(acq::SessionDir::open(a), o);
@@ -296,7 +315,17 @@ TEST(FitCli, FitsSeveralSessionsOfOnePaintTogether) {
   EXPECT_EQ(two.input["sessions"][0]["extraction"]["samples"].get<std::uint64_t>(), one.stats.samples);
   EXPECT_EQ(fitted_sessions(two.input), (std::vector<fs::path>{fs::absolute(a), fs::absolute(b)}));
   EXPECT_EQ(fitted_sessions(one.input), std::vector<fs::path>{fs::absolute(a)});
+}
 
+// The same through the command line: `fit`, `bin` and `export --merl` of two sessions, and
+// what cannot be fitted together refused with nothing written.
+TEST(FitCli, FitsSeveralSessionsOfOnePaintTogether) {
+  const brdf::PaintSpec spec = brdf::load_paint_file(test::source_dir() / "paints/solid-blue.toml");
+  const auto sim = test_support::make_sim_session(sim::sim_paint(spec), small_sweep());
+  const fs::path a = sim->dir / "a", b = sim->dir / "b", srgb = sim->dir / "srgb";
+  test_support::write_session_folder(*sim, a, "Solid Blue #2");
+  test_support::write_session_folder(*sim, b, "Solid Blue #2 turned");
+  test_support::write_session_folder(*sim, srgb, "Solid Blue #2", 0, "linear sRGB (D65)");
   const std::string calib = " --calib " + sim->calibration_dir().string();
   const fs::path out = sim->dir / "fit.json";
   auto r = test::run_paintlab("fit " + a.string() + " " + b.string() + calib + " --lobes 2 --out " + out.string());
@@ -305,31 +334,33 @@ TEST(FitCli, FitsSeveralSessionsOfOnePaintTogether) {
   EXPECT_THAT(r.out, HasSubstr(fmt::format("{} images", 2 * sim->frames.size())));
   const Json j = read_json_file(out);
   EXPECT_EQ(j["input"]["kind"], "sessions");
+  ASSERT_EQ(j["input"]["sessions"].size(), 2u);
   EXPECT_EQ(j["name"], "solid-blue--2");  // the first session's sample
   const brdf::PaintSpec fitted = brdf::paint_from_json(j, "fit.json");
   ASSERT_NE(fitted.cook_torrance(), nullptr);
   for (int c = 0; c < 3; ++c)
     EXPECT_THAT(fitted.cook_torrance()->kd[c], test::NearRel(spec.cook_torrance()->kd[c], 0.03)) << c;
+  // `paintlab bin` takes several sessions as well: the same images twice give the values of
+  // one (SessionBinning above counts the samples).
+  const fs::path binned = sim->dir / "two.binary", single = sim->dir / "one.binary";
+  r = test::run_paintlab("bin " + a.string() + " " + b.string() + calib + " --out " + binned.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(sim->dir / "two.coverage.exr"));
+  r = test::run_paintlab("bin " + a.string() + calib + " --out " + single.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const brdf::MerlTable bin_table = brdf::read_merl(binned), one_table = brdf::read_merl(single);
+  ASSERT_GT(one_table.count_in_state(brdf::BinState::Measured), 10000u);
+  for (std::size_t bin = 0; bin < brdf::kMerlBins; bin += 97)
+    ASSERT_THAT(bin_table.value(bin)[1], test::NearRel(one_table.value(bin)[1], 1e-5)) << bin;
   // export --merl bins the fit's sessions again, both of them.
   const fs::path merl = sim->dir / "both.binary";
   r = test::run_paintlab("export " + out.string() + calib + " --merl " + merl.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const brdf::MerlTable exported = brdf::read_merl(merl);
-  for (std::size_t bin = 0; bin < brdf::kMerlBins; bin += 97) {
-    if (two.binned.table.count(bin) > 0) {
-      ASSERT_THAT(exported.value(bin)[1], test::NearRel(two.binned.table.value(bin)[1], 1e-5)) << bin;
+  for (std::size_t bin = 0; bin < brdf::kMerlBins; bin += 97)  // measured bins (export fills the holes)
+    if (bin_table.value(bin)[1] >= 0.0) {
+      ASSERT_THAT(exported.value(bin)[1], test::NearRel(bin_table.value(bin)[1], 1e-5)) << bin;
     }
-  }
-  // `paintlab bin` takes several sessions as well.
-  const fs::path binned = sim->dir / "two.binary";
-  r = test::run_paintlab("bin " + a.string() + " " + b.string() + calib + " --out " + binned.string());
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_TRUE(fs::exists(sim->dir / "two.coverage.exr"));
-  const brdf::MerlTable bin_table = brdf::read_merl(binned);
-  for (std::size_t bin = 0; bin < brdf::kMerlBins; bin += 97)
-    ASSERT_THAT(bin_table.value(bin)[1],
-                test::NearRel(two.binned.table.count(bin) > 0 ? two.binned.table.value(bin)[1] : -1.0, 1e-5))
-        << bin;
 
   // What cannot be fitted together, nothing written.
   const fs::path bad = sim->dir / "bad.json";

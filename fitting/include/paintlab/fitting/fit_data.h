@@ -91,6 +91,14 @@ struct FitDataOptions {
   FitResiduals residuals = FitResiduals::Log;
   int window_phi_d = 8;          // Linear: phi_d bins on each side of a point in its reference window, 1..90
   bool delta_correction = true;
+  // The correction's point variance at least the scatter of neighbouring points' log values
+  // (outside the peak): under sparkle a point's samples are not independent (a glint seen
+  // again in the same bin by one pixel in consecutive images), and spread / n understates
+  // the variance of its mean. Measured by second differences of the log values along phi_d,
+  // pooled over theta_h +-1 and theta_d +-2 rows; never below spread / n (fit_data.cpp).
+  // Off by default: it brings the flake lobe's level at low theta_d to the truth (full demo
+  // rig -5 -> -1.5 %), but moves its ks / r split (docs/fitting.md "Sparkle").
+  bool point_scatter = false;
   std::uint32_t min_count = 1;   // measured bins with fewer samples are left out (tables with counts)
   // Consecutive phi_d bins of one (theta_h, theta_d) row are pooled into one fit point until
   // they hold this many samples together (tables with counts; 1 = every bin on its own).
@@ -164,6 +172,10 @@ struct FitData {
   bool linear = false;           // residuals in linear form (FitResiduals::Linear)
   std::uint32_t min_samples = 1; // the pooling used (options.min_samples, or what auto chose)
   double sparkle_excess = NAN;   // of the table (auto pooling), NaN when not measured
+  // How much more the glossy points' log values scatter than their samples' spread / n says
+  // (the median over the glossy points of the factor the delta correction's t2 took,
+  // FitDataOptions::point_scatter; 1 = independent samples). NaN when not applied.
+  double point_scatter = NAN;
   FitDataOptions options;
 };
 
@@ -231,6 +243,7 @@ struct ResidualReport {
   NoiseSource noise_source = NoiseSource::None;  // what the noise floor comes from
   std::uint32_t min_samples = 1;                 // FitData::min_samples
   double sparkle_excess = NAN;                   // FitData::sparkle_excess
+  double point_scatter = NAN;                    // FitData::point_scatter
   RegionResidual total;
   std::array<RegionResidual, kRegionCount> regions;
   std::vector<FitCurve> curves;  // at kCurveThetaDDeg, those with at least 3 theta_h groups
@@ -239,7 +252,7 @@ struct ResidualReport {
   // without statistics count 1), theta_h-major; all zero for an empty fit.
   std::vector<std::uint32_t> coverage;
   // {"log_rms", "bins_used", "residuals", "noise_floor_log_rms", "noise_source", "min_samples",
-  //  "sparkle_excess" (null when not measured), "regions": {...},
+  //  "sparkle_excess" (null when not measured), "point_scatter" (null when not applied), "regions": {...},
   //  "curves": [...], "coverage": {"theta_h_bins": 90, "theta_d_bins": 90, "cells": [[i, j, samples], ...]}}
   //  (coverage: the non-zero cells only)
   Json to_json() const;
