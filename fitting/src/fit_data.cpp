@@ -189,10 +189,7 @@ void scale_by_point_scatter(FitData& data) {
       b.target[k] = std::log(b.value[k]) + 0.5 * b.bias_variance[k];
     }
   }
-  if (!glossy.empty()) {
-    std::nth_element(glossy.begin(), glossy.begin() + static_cast<std::ptrdiff_t>(glossy.size() / 2), glossy.end());
-    data.point_scatter = glossy[glossy.size() / 2];
-  }
+  if (!glossy.empty()) data.point_scatter = upper_median_inplace(glossy);
 }
 
 }  // namespace

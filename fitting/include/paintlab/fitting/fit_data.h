@@ -97,7 +97,7 @@ struct FitDataOptions {
   // the variance of its mean. Measured by second differences of the log values along phi_d,
   // pooled over theta_h +-1 and theta_d +-2 rows; never below spread / n (fit_data.cpp).
   // Off by default: it brings the flake lobe's level at low theta_d to the truth (full demo
-  // rig -5 -> -1.5 %), but moves its ks / r split (docs/fitting.md "Sparkle").
+  // rig, level ks r -2.3..-5.8 -> -1.7..+2.0 % on five panels), but moves its ks / r split (docs/fitting.md "Sparkle").
   bool point_scatter = false;
   std::uint32_t min_count = 1;   // measured bins with fewer samples are left out (tables with counts)
   // Consecutive phi_d bins of one (theta_h, theta_d) row are pooled into one fit point until
