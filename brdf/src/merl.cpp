@@ -163,9 +163,14 @@ std::string encode_merl(const MerlTable& table) {
   const std::int32_t dims[3] = {kMerlThetaH, kMerlThetaD, kMerlPhiD};
   std::memcpy(bytes.data(), dims, sizeof dims);
   std::vector<double> plane(kMerlBins);
+  // The format's negative numbers mean "missing": a measured bin whose mean is below zero in a
+  // channel (noise about a black level, a colour matrix's negative lobe on a tinted glint) is
+  // written as 0 there, so that it reads back as measured (the coverage map keeps the mean).
   for (int c = 0; c < 3; ++c) {
-    for (std::size_t b = 0; b < kMerlBins; ++b)
-      plane[b] = table.state(b) == BinState::Empty ? -1.0 : table.value(b)[c] / kMerlScale[c];
+    for (std::size_t b = 0; b < kMerlBins; ++b) {
+      const double v = table.value(b)[c];
+      plane[b] = table.state(b) == BinState::Empty ? -1.0 : (v < 0.0 ? 0.0 : v) / kMerlScale[c];
+    }
     std::memcpy(bytes.data() + sizeof dims + c * kMerlBins * sizeof(double), plane.data(),
                 kMerlBins * sizeof(double));
   }

@@ -162,6 +162,25 @@ TEST(MerlFile, NegativeMeansMissing) {
   EXPECT_EQ(back.count_in_state(BinState::Measured), 0u);
 }
 
+// A measured bin whose mean came out below zero in one channel (a binned session: noise about
+// the black level, or the colour matrix on a tinted glint) stays measured through the file, at
+// 0 in that channel, the others kept: the file's negative numbers mean missing, and a table
+// `paintlab bin` wrote must read back with the states its coverage map records.
+TEST(MerlFile, AMeasuredNegativeMeanIsWrittenAsZeroAndStaysMeasured) {
+  MerlTable t;
+  const std::size_t bin = merl_flat_index({40, 30, 20});
+  t.set_value(bin, Rgb(-0.27, 3.97, 0.042), BinState::Measured);
+  const MerlTable back = decode_merl(encode_merl(t), "t.binary");
+  ASSERT_EQ(back.state(bin), BinState::Measured);
+  EXPECT_EQ(back.value(bin)[0], 0.0);
+  EXPECT_NEAR(back.value(bin)[1], 3.97, 1e-12);
+  EXPECT_NEAR(back.value(bin)[2], 0.042, 1e-14);
+  EXPECT_EQ(back.count_in_state(BinState::Measured), 1u);
+  // Not a way to hide a broken value: NaN is still refused.
+  t.set_value(bin, Rgb(std::nan(""), 1.0, 1.0), BinState::Measured);
+  EXPECT_THROW(decode_merl(encode_merl(t), "t.binary"), DataError);
+}
+
 TEST(MerlFile, WrongSizeOrDimsIsADataError) {
   test::TempDir d;
   test::write_text(d / "short.binary", std::string(1000, '\0'));

@@ -207,6 +207,11 @@ TEST(FitCli, BinsAndFitsASessionFolder) {
   const std::size_t measured = table.count_in_state(brdf::BinState::Measured);
   EXPECT_GT(measured, 10000u);
   EXPECT_LT(measured, brdf::kMerlBins / 2);  // holes stay holes (-1 in the file)
+  // What `bin` writes, `fit` reads with the coverage map beside it: every bin the map calls
+  // measured is measured in the file (a mean below zero is written as 0, not as missing).
+  r = test::run_paintlab("fit " + merl.string() + " --lobes 1 --out " + (sim->dir / "table.fit.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(sim->dir / "table.fit.json"));
   // Against the paint it is, band by band of max(theta_i, theta_o) (docs/fitting.md).
   const fs::path merl2 = sim->dir / "blue2.binary";
   const std::string paint_file = (test::source_dir() / "paints/solid-blue.toml").string();
