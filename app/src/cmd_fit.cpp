@@ -223,9 +223,10 @@ void register_fit_commands(CLI::App& app) {
   sets_fields(fit->add_option("--min-samples", args->min_samples,
                               "Pool neighbouring phi_d bins of a session into fit points of at least this many "
                               "samples: auto (16 when the glossy samples spread more than 20 x their noise, flake "
-                              "sparkle, where a bin of a few samples is decided by a glint or its absence; a point "
-                              "per bin otherwise), or a count (1 = a point per bin). MERL tables hold no counts and "
-                              "are never pooled"),
+                              "sparkle, where a bin of a few samples is decided by a glint or its absence; 256 when "
+                              "several sessions of such a paint are fitted together, docs/fitting.md \"Sparkle\"; a "
+                              "point per bin otherwise), or a count (1 = a point per bin). MERL tables hold no counts "
+                              "and are never pooled"),
               {"FitDataOptions::min_samples"})
       ->capture_default_str();
   fit->add_option("--residuals", args->residuals,

@@ -199,6 +199,12 @@ void FitDataOptions::check() const {
     throw OptionError("FitDataOptions::relative_floor", fmt::format("{}", relative_floor), "(0, 1)");
   if (window_phi_d < 1 || window_phi_d > kMerlPhiD / 2)
     throw OptionError("FitDataOptions::window_phi_d", std::to_string(window_phi_d), "1..90");
+  if (sessions < 1) throw OptionError("FitDataOptions::sessions", std::to_string(sessions), ">= 1");
+}
+
+std::uint32_t auto_pooling(double excess, std::uint32_t sessions) {
+  if (!(excess > kSparkleExcess)) return 1;
+  return sessions > 1 ? kSparklePoolingSessions : kSparklePooling;
 }
 
 constexpr EnumNames<FitResiduals, 2> kResidualNames{{{FitResiduals::Log, "log"}, {FitResiduals::Linear, "linear"}}};
@@ -255,7 +261,7 @@ FitData prepare_fit_data(const brdf::MerlTable& table, const FitDataOptions& req
   data.options = requested;
   if (options.min_samples == 0) {
     data.sparkle_excess = sparkle_excess(table, noise_variance);
-    options.min_samples = data.sparkle_excess > kSparkleExcess ? kSparklePooling : 1;
+    options.min_samples = auto_pooling(data.sparkle_excess, options.sessions);
   }
   data.min_samples = options.min_samples;
   std::size_t with_counts = 0, measured = 0;

@@ -59,6 +59,14 @@ std::string paint_name_from(std::string_view text) {
 
 namespace {
 
+// The sessions binned into a fit's table, from its "input" (session_binning.h: "kind":
+// "sessions" lists them); 1 for one session or a table.
+std::uint32_t sessions_in(const Json& input) {
+  if (!input.is_object() || !input.contains("kind") || input["kind"] != "sessions") return 1;
+  const auto it = input.find("sessions");
+  return it != input.end() && it->is_array() && !it->empty() ? static_cast<std::uint32_t>(it->size()) : 1;
+}
+
 std::string region_lines(const ResidualReport& r) {
   std::string s = fmt::format("  residual log-RMS  {:.4f} over {} bins ({} values)", r.total.log_rms, r.total.bins,
                               r.total.residuals);
@@ -140,7 +148,8 @@ void set_termination(FitOutcome& out, const FitSummary& s) {
 FitOutcome fit_table(const brdf::MerlTable& table, const std::vector<float>* noise_variance, const FitRequest& request,
                      const Json& input) {
   FitOutcome out;
-  auto run = [&](const auto& options, auto fit, auto report) {
+  auto run = [&](auto options, auto fit, auto report) {
+    options.data.sessions = sessions_in(input);
     const FitData data = prepare_fit_data(table, options.data, noise_variance);
     const auto f = fit(data, options);
     out.fit = f.to_json(request.name);
@@ -170,6 +179,7 @@ FitOutcome fit_sites(const SiteTables& sites, const FitRequest& request, const J
   // Auto pooling decided once for the three tables (each looked at in its own colour): the
   // sites of one camera see the same flakes.
   FitDataOptions site_data = options.data;
+  site_data.sessions = sessions_in(input);
   double excess = NAN;
   if (site_data.min_samples == 0) {
     for (std::size_t c = 0; c < 3; ++c) {
@@ -177,7 +187,7 @@ FitOutcome fit_sites(const SiteTables& sites, const FitRequest& request, const J
       const double e = sparkle_excess(t.table, t.noise_variance.empty() ? nullptr : &t.noise_variance, static_cast<int>(c));
       if (std::isfinite(e) && !(e <= excess)) excess = e;
     }
-    site_data.min_samples = excess > kSparkleExcess ? kSparklePooling : 1;
+    site_data.min_samples = auto_pooling(excess, site_data.sessions);
   }
   std::array<FitData, 3> per_site;
   for (std::size_t c = 0; c < 3; ++c) {

@@ -8,6 +8,7 @@
 
 #include "paintlab/brdf/cook_torrance.h"
 #include "paintlab/core/error.h"
+#include "paintlab/fitting/pipeline.h"
 #include "synthetic.h"
 #include "paintlab/core/log.h"
 #include "test_util.h"
@@ -374,6 +375,53 @@ TEST(FitData, AutoPoolingFollowsTheSparkle) {
   // An explicit count is used as it is.
   o.min_samples = 1;
   EXPECT_EQ(prepare_fit_data(binned.table, o, &binned.noise_variance).min_samples, 1u);
+
+  // Several sessions of a sparkling paint binned together pool to kSparklePoolingSessions
+  // (docs/fitting.md "Sparkle"); without sparkle they keep a point per bin.
+  o.min_samples = 0;
+  o.sessions = 3;
+  const FitData sessions = prepare_fit_data(binned.table, o, &binned.noise_variance);
+  EXPECT_EQ(sessions.min_samples, kSparklePoolingSessions);
+  EXPECT_LT(sessions.bins.size(), sparkly.bins.size() * 3 / 4);  // this sweep's rows hold a few hundred samples
+  for (const FitBin& b : sessions.bins) {
+    // Every point holds its share (a row's last, smaller group joins the one before it, so a
+    // point falls short only where its whole theta_h x theta_d row holds fewer samples).
+    if (b.count < kSparklePoolingSessions) {
+      const brdf::MerlBin mb = brdf::merl_bin_of_flat(b.bin);
+      std::uint32_t row = 0;
+      for (int k = 0; k < brdf::kMerlPhiD; ++k) row += binned.table.count(brdf::merl_flat_index({mb.theta_h, mb.theta_d, k}));
+      ASSERT_LT(row, 2 * kSparklePoolingSessions) << b.bin;
+    }
+  }
+  EXPECT_EQ(auto_pooling(plain_excess, 3), 1u);
+  EXPECT_EQ(auto_pooling(NAN, 3), 1u);
+  EXPECT_EQ(auto_pooling(400.0 * plain_excess, 1), kSparklePooling);
+  o.sessions = 0;
+  EXPECT_THROW(prepare_fit_data(binned.table, o, &binned.noise_variance), OptionError);
+}
+
+// fit_table takes the sessions from the fit's "input" (session_binning.h: "kind": "sessions"
+// lists them): a sparkling table of two sessions is fitted at kSparklePoolingSessions
+// samples a point, of one session or a MERL table at kSparklePooling.
+TEST(FitData, AFitOfSeveralSessionsPoolsLargerPoints) {
+  const brdf::CookTorranceParams truth = blue_params();
+  const brdf::CookTorrance paint(truth.kd, truth.lobes);
+  BinnedTable binned = test_support::binned_sweep(paint, 100, 0.02, test::seed(), 2.0);
+  for (std::size_t b = 0; b < brdf::kMerlBins; ++b)
+    if (binned.table.state(b) == brdf::BinState::Measured)
+      binned.table.set_statistics(b, binned.table.count(b), 400.0 * binned.table.variance(b), binned.table.mean_coords(b));
+  FitRequest req = FitRequest::with(FitModel::CookTorrance, "blue", {});
+  req.cook_torrance = quick_options(2);
+  req.cook_torrance.data.min_samples = 0;
+  const Json two = {{"kind", "sessions"}, {"sessions", Json::array({Json::object(), Json::object()})}};
+  for (const auto& [input, expected] : {std::pair{two, kSparklePoolingSessions},
+                                        std::pair{Json{{"kind", "session"}}, kSparklePooling},
+                                        std::pair{Json{{"kind", "merl"}}, kSparklePooling}}) {
+    SCOPED_TRACE(input.dump());
+    const FitOutcome out = fit_table(binned.table, &binned.noise_variance, req, input);
+    EXPECT_EQ(out.fit["residual"]["min_samples"], expected);
+    EXPECT_THAT(out.report, ::testing::HasSubstr(fmt::format("pooled to {} samples", expected)));
+  }
 }
 
 TEST(CookTorranceFit, RecoversTwoLobesWithLinearResiduals) {

@@ -341,6 +341,7 @@ TEST(FitCli, FitsSeveralSessionsOfOnePaintTogether) {
   EXPECT_EQ(j["input"]["kind"], "sessions");
   ASSERT_EQ(j["input"]["sessions"].size(), 2u);
   EXPECT_EQ(j["name"], "solid-blue--2");  // the first session's sample
+  EXPECT_EQ(j["residual"]["min_samples"], 1);  // no sparkle: a point per bin, however many sessions
   const brdf::PaintSpec fitted = brdf::paint_from_json(j, "fit.json");
   ASSERT_NE(fitted.cook_torrance(), nullptr);
   for (int c = 0; c < 3; ++c)

@@ -70,6 +70,16 @@ FitResiduals fit_residuals_from_string(std::string_view s, std::string_view wher
 // sparkles, and the sparkle_excess above which it does.
 inline constexpr std::uint32_t kSparklePooling = 16;
 inline constexpr double kSparkleExcess = 20.0;
+// Auto pooling of a sparkling table that holds several sessions binned together (other spheres
+// or orientations of one paint, `paintlab fit S1 S2 ...`): fit points of this many samples.
+// Why (docs/fitting.md "Sparkle", full demo rig, 2026-12-07): with 16-sample points the fit
+// of several flake fields' data puts the medium flake lobe's r 4.6 % below what the best
+// estimator of those data gives (mean over five pairs of panels and all five together; the
+// level ks r 1.4-4.3 % low), with 256-sample points 1.0 % above it (within 3.1 %; the level
+// within 1.3 %): five panels r -4.4 -> -2.0 %, ks +3.2 -> +1.7 %. One panel is left at
+// kSparklePooling: its fit is not linear in its one flake field, and at 256 samples it puts r
+// 6-14 % above that estimator on each of five panels (at 16: +0.4 % on average).
+inline constexpr std::uint32_t kSparklePoolingSessions = 256;
 // Above this the fit's report says that a flake lobe's ks / r split is the flakes' draw: few
 // flakes a pixel (1450 and 8320 on the 640 x 480 and full demo rigs). Not at 22.5 (the quick
 // demo's half-resolution rig, many flakes a pixel) nor 25.6 (the full demo rig's silver
@@ -85,6 +95,11 @@ inline constexpr double kSparkleDrawNote = 100.0;
 // and filter-wheel rigs (more flakes a pixel, each glint shared). docs/fitting.md "Pooling". NaN without noise variances or bins of 3 samples or more. `channel`: the
 // table's channel to look at (a filter-array site table holds its own colour only).
 double sparkle_excess(const brdf::MerlTable& table, const std::vector<float>* noise_variance, int channel = 1);
+
+// The pooling auto chooses (FitDataOptions::min_samples 0) for a table of `sessions` sessions
+// whose sparkle_excess is `excess`: a point per bin (1) unless the excess is above
+// kSparkleExcess, then kSparklePooling for one session and kSparklePoolingSessions for several.
+std::uint32_t auto_pooling(double excess, std::uint32_t sessions);
 
 struct FitDataOptions {
   double relative_floor = 0.01;  // floor of sigma (relative error), > 0
@@ -111,6 +126,9 @@ struct FitDataOptions {
   // each region of the table weighs in the fit (a pooled point is one residual), so a paint a
   // model cannot follow (a pearlescent under Cook-Torrance) is fitted a point per bin.
   std::uint32_t min_samples = 0;
+  // Sessions binned into the table (independent flake fields of one paint), >= 1: auto pooling
+  // of a sparkling table takes kSparklePoolingSessions when more than one (auto_pooling).
+  std::uint32_t sessions = 1;
   void check() const;
 };
 
