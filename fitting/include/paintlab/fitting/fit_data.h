@@ -128,6 +128,8 @@ struct FitDataOptions {
   std::uint32_t min_samples = 0;
   // Sessions binned into the table (independent flake fields of one paint), >= 1: auto pooling
   // of a sparkling table takes kSparklePoolingSessions when more than one (auto_pooling).
+  // fit_table and fit_sites (pipeline.h) set it from the fit's "input"; callers of
+  // prepare_fit_data set it themselves.
   std::uint32_t sessions = 1;
   void check() const;
 };
